@@ -1,0 +1,29 @@
+# desslam_add_library(<stage> SOURCES ... [DEPS ...])
+#   builds desslam_<stage> from src/<stage>; public include root is src/ so headers are
+#   included as "<stage>/header.hpp".
+function(desslam_add_library stage)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  add_library(desslam_${stage} STATIC ${ARG_SOURCES})
+  target_include_directories(desslam_${stage} PUBLIC ${CMAKE_SOURCE_DIR}/src)
+  target_link_libraries(desslam_${stage} PUBLIC ${ARG_DEPS})
+endfunction()
+
+# desslam_add_test(<name> SOURCES ... [DEPS ...] [LABELS ...] [TIMEOUT s])
+#   one GoogleTest executable registered with CTest (gtest_discover_tests).
+#   DESSLAM_SHARED_DIR (../shared beside the project) is passed to the tests as an env var.
+function(desslam_add_test name)
+  cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main)
+  target_include_directories(${name} PRIVATE ${CMAKE_SOURCE_DIR}/tests)
+  set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
+  if(NOT ARG_TIMEOUT)
+    set(ARG_TIMEOUT 600)
+  endif()
+  include(GoogleTest)
+  gtest_discover_tests(${name}
+    WORKING_DIRECTORY ${CMAKE_SOURCE_DIR}
+    PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "${ARG_LABELS}"
+      ENVIRONMENT "DESSLAM_SHARED_DIR=${DESSLAM_SHARED_DIR};DESSLAM_SOURCE_DIR=${CMAKE_SOURCE_DIR}"
+    DISCOVERY_TIMEOUT 60)
+endfunction()

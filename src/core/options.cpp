@@ -1,0 +1,104 @@
+#include "core/options.hpp"
+
+#include <sstream>
+
+namespace desslam {
+
+void requireInRange(const char* section, const char* key, double value, double lo, double hi) {
+  if (value >= lo && value <= hi) return;
+  std::ostringstream msg;
+  msg << "config key " << section << "." << key << " = " << value << " is out of range: expected "
+      << lo << " <= value <= " << hi;
+  throw ConfigError(msg.str());
+}
+
+void requireThat(bool ok, const char* section, const char* key, const std::string& message) {
+  if (!ok) throw ConfigError(std::string("config key ") + section + "." + key + ": " + message);
+}
+
+void CameraOptions::validate() const {
+  const char* s = kSection;
+  requireThat(fx > 0 && fy > 0, s, "fx/fy", "focal lengths must be positive (pixels)");
+  requireInRange(s, "width", width, 16, 16384);
+  requireInRange(s, "height", height, 16, 16384);
+  requireInRange(s, "cx", cx, 0, width);
+  requireInRange(s, "cy", cy, 0, height);
+  requireThat(depth_factor > 0, s, "depth_factor",
+              "must be positive: raw depth units per metre (5000 for TUM and Bonn, 1000 for mm)");
+  requireInRange(s, "fps", fps, 0.1, 1000);
+}
+
+void OrbOptions::validate() const {
+  const char* s = kSection;
+  requireInRange(s, "num_features", num_features, 50, 20000);
+  requireInRange(s, "num_levels", num_levels, 1, 16);
+  requireInRange(s, "scale_factor", scale_factor, 1.01, 2.0);
+  requireInRange(s, "initial_fast_threshold", initial_fast_threshold, 1, 255);
+  requireInRange(s, "min_fast_threshold", min_fast_threshold, 1, initial_fast_threshold);
+  requireInRange(s, "cell_size", cell_size, 10, 200);
+}
+
+void TrackingOptions::validate() const {
+  const char* s = kSection;
+  requireInRange(s, "min_depth", min_depth, 0.0, 10.0);
+  requireInRange(s, "max_depth", max_depth, min_depth, 100.0);
+  requireInRange(s, "close_depth", close_depth, min_depth, max_depth);
+  requireInRange(s, "min_inliers", min_inliers, 4, 1000);
+  requireInRange(s, "max_frames_between_keyframes", max_frames_between_keyframes, 1, 100000);
+  requireInRange(s, "min_frames_between_keyframes", min_frames_between_keyframes, 0,
+                 max_frames_between_keyframes);
+  requireInRange(s, "keyframe_tracked_ratio", keyframe_tracked_ratio, 0.0, 1.0);
+  requireInRange(s, "keyframe_translation", keyframe_translation, 0.0, 100.0);
+  requireInRange(s, "keyframe_rotation_deg", keyframe_rotation_deg, 0.0, 180.0);
+  requireInRange(s, "local_map_keyframes", local_map_keyframes, 1, 1000);
+}
+
+void MappingOptions::validate() const {
+  const char* s = kSection;
+  requireInRange(s, "covisible_for_triangulation", covisible_for_triangulation, 1, 100);
+  requireInRange(s, "local_ba_iterations", local_ba_iterations, 1, 1000);
+  requireInRange(s, "redundant_keyframe_ratio", redundant_keyframe_ratio, 0.0, 1.0);
+}
+
+void DynamicOptions::validate() const {
+  const char* s = kSection;
+  requireThat(mode == "off" || mode == "semantic" || mode == "geometric" || mode == "full", s, "mode",
+              "'" + mode + "' is not one of off, semantic, geometric, full");
+  requireInRange(s, "stage1_threshold", stage1_threshold, 0.0, 10.0);
+  requireInRange(s, "stage2_threshold", stage2_threshold, 0.0, 10.0);
+  requireInRange(s, "mask_dilation_px", mask_dilation_px, 0, 100);
+}
+
+void SemanticOptions::validate() const {
+  const char* s = kSection;
+  requireThat(segmenter == "deeplab" || segmenter == "mask_dir" || segmenter == "none", s, "segmenter",
+              "'" + segmenter + "' is not one of deeplab, mask_dir, none");
+  requireThat(segmenter != "mask_dir" || !mask_dir.empty(), s, "mask_dir",
+              "segmenter is mask_dir but no mask_dir is given");
+  requireThat(!dynamic_classes.empty(), s, "dynamic_classes", "needs at least one class id (15 = person)");
+  for (int c : dynamic_classes) requireInRange(s, "dynamic_classes", c, 0, 255);
+  requireInRange(s, "threads", threads, 1, 64);
+}
+
+void DenseOptions::validate() const {
+  const char* s = kSection;
+  requireInRange(s, "voxel_size", voxel_size, 0.001, 1.0);
+  requireInRange(s, "min_depth", min_depth, 0.0, 100.0);
+  requireInRange(s, "max_depth", max_depth, min_depth, 100.0);
+  requireInRange(s, "pixel_stride", pixel_stride, 1, 64);
+  requireInRange(s, "outlier_neighbors", outlier_neighbors, 0, 1000);
+  requireInRange(s, "outlier_std_ratio", outlier_std_ratio, 0.01, 100.0);
+  requireInRange(s, "octomap_resolution", octomap_resolution, 0.001, 10.0);
+}
+
+void SystemOptions::validate() const {
+  camera.validate();
+  orb.validate();
+  tracking.validate();
+  mapping.validate();
+  dynamic.validate();
+  semantic.validate();
+  dense.validate();
+}
+
+}  // namespace desslam

@@ -1,0 +1,159 @@
+// Options structs of every stage: defaults here, values from YAML (io/config.hpp), each with
+// validate() that throws ConfigError naming the bad key ("section.key").
+//
+// Each struct lists its keys once in fields(v), v(key, member): the YAML loader, the report
+// writer and unknown-key detection all use that list, so a new option is added in one place.
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "core/error.hpp"
+
+namespace desslam {
+
+// Throws ConfigError "<section>.<key> = <value>: <requirement>" unless lo <= value <= hi.
+void requireInRange(const char* section, const char* key, double value, double lo, double hi);
+// Throws ConfigError "<section>.<key>: <message>" unless ok.
+void requireThat(bool ok, const char* section, const char* key, const std::string& message);
+
+struct CameraOptions {
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  int width = 640, height = 480;
+  std::array<double, 5> distortion{0, 0, 0, 0, 0};  // k1 k2 p1 p2 k3 (OpenCV order)
+  double depth_factor = 5000.0;  // raw 16-bit depth value per metre (TUM/Bonn: 5000)
+  double fps = 30.0;
+
+  static constexpr const char* kSection = "camera";
+  template <class V> void fields(V& v) {
+    v("fx", fx); v("fy", fy); v("cx", cx); v("cy", cy); v("width", width); v("height", height);
+    v("distortion", distortion); v("depth_factor", depth_factor); v("fps", fps);
+  }
+  void validate() const;
+};
+
+struct OrbOptions {
+  int num_features = 1000;
+  int num_levels = 8;
+  double scale_factor = 1.2;
+  int initial_fast_threshold = 20;  // tried first in each cell
+  int min_fast_threshold = 7;       // fallback in cells where the first finds nothing
+  int cell_size = 35;               // pixel size of the FAST detection grid cells
+
+  static constexpr const char* kSection = "orb";
+  template <class V> void fields(V& v) {
+    v("num_features", num_features); v("num_levels", num_levels); v("scale_factor", scale_factor);
+    v("initial_fast_threshold", initial_fast_threshold); v("min_fast_threshold", min_fast_threshold);
+    v("cell_size", cell_size);
+  }
+  void validate() const;
+};
+
+struct TrackingOptions {
+  double min_depth = 0.1;          // metres; closer readings are ignored
+  double max_depth = 4.0;          // metres; features beyond have no depth-backed 3-D point
+  double close_depth = 3.0;        // metres; "close" points count for the keyframe decision
+  int min_inliers = 15;            // fewer pose inliers => tracking lost
+  int max_frames_between_keyframes = 30;   // at most one second without a keyframe (at 30 Hz)
+  int min_frames_between_keyframes = 0;
+  double keyframe_tracked_ratio = 0.9;     // new keyframe when tracked/ref-keyframe points < this
+  // Pose-change criterion (relative pose between the frame and its reference keyframe).
+  double keyframe_translation = 0.10;      // metres
+  double keyframe_rotation_deg = 10.0;     // degrees
+  int local_map_keyframes = 20;            // co-visible keyframes in the local map
+
+  static constexpr const char* kSection = "tracking";
+  template <class V> void fields(V& v) {
+    v("min_depth", min_depth); v("max_depth", max_depth); v("close_depth", close_depth);
+    v("min_inliers", min_inliers); v("max_frames_between_keyframes", max_frames_between_keyframes);
+    v("min_frames_between_keyframes", min_frames_between_keyframes);
+    v("keyframe_tracked_ratio", keyframe_tracked_ratio);
+    v("keyframe_translation", keyframe_translation); v("keyframe_rotation_deg", keyframe_rotation_deg);
+    v("local_map_keyframes", local_map_keyframes);
+  }
+  void validate() const;
+};
+
+struct MappingOptions {
+  int covisible_for_triangulation = 10;  // neighbours searched for new points
+  int local_ba_iterations = 10;
+  bool local_ba = true;
+  double redundant_keyframe_ratio = 0.9;  // culled when this share of its points is seen by >= 3 others
+
+  static constexpr const char* kSection = "mapping";
+  template <class V> void fields(V& v) {
+    v("covisible_for_triangulation", covisible_for_triangulation);
+    v("local_ba_iterations", local_ba_iterations); v("local_ba", local_ba);
+    v("redundant_keyframe_ratio", redundant_keyframe_ratio);
+  }
+  void validate() const;
+};
+
+struct DynamicOptions {
+  std::string mode = "full";        // off | semantic | geometric | full
+  double stage1_threshold = 0.12;   // |1 - d_proj/z_k| above this => dynamic (tracking)
+  double stage2_threshold = 0.08;   // |z_r - d_r| / z_r above this => residual dynamic (keyframes)
+  int mask_dilation_px = 5;         // the semantic mask is dilated by this radius
+
+  static constexpr const char* kSection = "dynamic";
+  template <class V> void fields(V& v) {
+    v("mode", mode); v("stage1_threshold", stage1_threshold); v("stage2_threshold", stage2_threshold);
+    v("mask_dilation_px", mask_dilation_px);
+  }
+  void validate() const;
+};
+
+struct SemanticOptions {
+  std::string segmenter = "deeplab";  // deeplab | mask_dir | none
+  std::string model_path;             // empty: ../shared/models/deeplabv3_mnv2_voc_257.onnx
+  std::string model_sha256 = "affb6c7119ea36f686f718f887f719db19091fb43014e16402148764c2a0d05d";
+  std::string mask_dir;               // for segmenter = mask_dir: one PNG per RGB frame
+  std::vector<int> dynamic_classes{15};  // PASCAL VOC ids (15 = person)
+  int threads = 1;                    // OpenCV dnn threads
+
+  static constexpr const char* kSection = "semantic";
+  template <class V> void fields(V& v) {
+    v("segmenter", segmenter); v("model_path", model_path); v("model_sha256", model_sha256);
+    v("mask_dir", mask_dir); v("dynamic_classes", dynamic_classes); v("threads", threads);
+  }
+  void validate() const;
+};
+
+struct DenseOptions {
+  bool enabled = true;
+  double voxel_size = 0.01;      // metres
+  double min_depth = 0.1;        // metres
+  double max_depth = 4.0;        // metres
+  int pixel_stride = 2;          // back-project every n-th pixel in u and v
+  int outlier_neighbors = 20;    // statistical outlier removal
+  double outlier_std_ratio = 2.0;
+  double octomap_resolution = 0.05;  // metres
+
+  static constexpr const char* kSection = "dense";
+  template <class V> void fields(V& v) {
+    v("enabled", enabled); v("voxel_size", voxel_size); v("min_depth", min_depth);
+    v("max_depth", max_depth); v("pixel_stride", pixel_stride);
+    v("outlier_neighbors", outlier_neighbors); v("outlier_std_ratio", outlier_std_ratio);
+    v("octomap_resolution", octomap_resolution);
+  }
+  void validate() const;
+};
+
+// Everything a run is configured with (one YAML file, one section per struct).
+struct SystemOptions {
+  CameraOptions camera;
+  OrbOptions orb;
+  TrackingOptions tracking;
+  MappingOptions mapping;
+  DynamicOptions dynamic;
+  SemanticOptions semantic;
+  DenseOptions dense;
+
+  template <class F> void sections(F&& f) {
+    f(camera); f(orb); f(tracking); f(mapping); f(dynamic); f(semantic); f(dense);
+  }
+  void validate() const;
+};
+
+}  // namespace desslam
