@@ -10,6 +10,8 @@ int main(int argc, char** argv) {
   CLI::App app{"DeS-SLAM: ORB RGB-D SLAM with semantic and geometric dynamic-feature removal"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "desslam 0.1.0");
+  desslam::app::registerRunCommand(app);
+  desslam::app::registerEvalCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

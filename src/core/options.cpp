@@ -51,6 +51,7 @@ void TrackingOptions::validate() const {
   requireInRange(s, "keyframe_translation", keyframe_translation, 0.0, 100.0);
   requireInRange(s, "keyframe_rotation_deg", keyframe_rotation_deg, 0.0, 180.0);
   requireInRange(s, "local_map_keyframes", local_map_keyframes, 1, 1000);
+  requireInRange(s, "depth_baseline", depth_baseline, 0.001, 10.0);
 }
 
 void MappingOptions::validate() const {
@@ -89,6 +90,11 @@ void DenseOptions::validate() const {
   requireInRange(s, "outlier_neighbors", outlier_neighbors, 0, 1000);
   requireInRange(s, "outlier_std_ratio", outlier_std_ratio, 0.01, 100.0);
   requireInRange(s, "octomap_resolution", octomap_resolution, 0.001, 10.0);
+  requireInRange(s, "exclude_dilation_px", exclude_dilation_px, 0, 100);
+  requireInRange(s, "depth_edge_ratio", depth_edge_ratio, 0.0, 10.0);
+  requireInRange(s, "queue_capacity", queue_capacity, 1, 100000);
+  requireInRange(s, "render_width", render_width, 16, 16384);
+  requireInRange(s, "render_height", render_height, 16, 16384);
 }
 
 void SystemOptions::validate() const {

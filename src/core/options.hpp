@@ -61,7 +61,10 @@ struct TrackingOptions {
   // Pose-change criterion (relative pose between the frame and its reference keyframe).
   double keyframe_translation = 0.10;      // metres
   double keyframe_rotation_deg = 10.0;     // degrees
-  int local_map_keyframes = 20;            // co-visible keyframes in the local map
+  int local_map_keyframes = 40;            // co-visible keyframes in the local map
+  // Depth residuals are expressed as a virtual stereo disparity bf/z (pixels), as for RGB-D
+  // keypoints in the ORB-SLAM2 paper; bf = fx * depth_baseline (Kinect-like sensors: ~8 cm).
+  double depth_baseline = 0.08;            // metres
 
   static constexpr const char* kSection = "tracking";
   template <class V> void fields(V& v) {
@@ -70,7 +73,7 @@ struct TrackingOptions {
     v("min_frames_between_keyframes", min_frames_between_keyframes);
     v("keyframe_tracked_ratio", keyframe_tracked_ratio);
     v("keyframe_translation", keyframe_translation); v("keyframe_rotation_deg", keyframe_rotation_deg);
-    v("local_map_keyframes", local_map_keyframes);
+    v("local_map_keyframes", local_map_keyframes); v("depth_baseline", depth_baseline);
   }
   void validate() const;
 };
@@ -106,11 +109,16 @@ struct DynamicOptions {
 
 struct SemanticOptions {
   std::string segmenter = "deeplab";  // deeplab | mask_dir | none
-  std::string model_path;             // empty: ../shared/models/deeplabv3_mnv2_voc_257.onnx
+  // Empty: looked for in $DESSLAM_SHARED_DIR/models, ../shared/models, <exe>/../../shared/models
+  // (semantic::resolveModelPath) as deeplabv3_mnv2_voc_257.onnx.
+  std::string model_path;
+  // Checked before the model is loaded; empty skips the check (for a model of your own).
   std::string model_sha256 = "affb6c7119ea36f686f718f887f719db19091fb43014e16402148764c2a0d05d";
   std::string mask_dir;               // for segmenter = mask_dir: one PNG per RGB frame
   std::vector<int> dynamic_classes{15};  // PASCAL VOC ids (15 = person)
-  int threads = 1;                    // OpenCV dnn threads
+  // OpenCV threads for the network. cv::setNumThreads() is process-wide, so the application
+  // applies this; the semantic library never calls it.
+  int threads = 1;
 
   static constexpr const char* kSection = "semantic";
   template <class V> void fields(V& v) {
@@ -129,13 +137,24 @@ struct DenseOptions {
   int outlier_neighbors = 20;    // statistical outlier removal
   double outlier_std_ratio = 2.0;
   double octomap_resolution = 0.05;  // metres
+  // The exclude (dynamic) mask is grown by this radius before back-projection: depth at a
+  // person's silhouette bleeds into the background, and those pixels would leave ghosts.
+  int exclude_dilation_px = 3;
+  // Pixels whose depth differs from a 4-neighbour by more than this share of their depth are
+  // dropped ("flying pixels" at depth discontinuities); 0 keeps them.
+  double depth_edge_ratio = 0.05;
+  int queue_capacity = 16;           // keyframes waiting for the dense mapping thread
+  int render_width = 1024;           // PNG preview of the map (pixels)
+  int render_height = 768;
 
   static constexpr const char* kSection = "dense";
   template <class V> void fields(V& v) {
     v("enabled", enabled); v("voxel_size", voxel_size); v("min_depth", min_depth);
     v("max_depth", max_depth); v("pixel_stride", pixel_stride);
     v("outlier_neighbors", outlier_neighbors); v("outlier_std_ratio", outlier_std_ratio);
-    v("octomap_resolution", octomap_resolution);
+    v("octomap_resolution", octomap_resolution); v("exclude_dilation_px", exclude_dilation_px);
+    v("depth_edge_ratio", depth_edge_ratio); v("queue_capacity", queue_capacity);
+    v("render_width", render_width); v("render_height", render_height);
   }
   void validate() const;
 };

@@ -1,0 +1,103 @@
+#include "dense/map_export.hpp"
+
+#include <octomap/OcTree.h>
+#include <open3d/geometry/PointCloud.h>
+#include <open3d/io/PointCloudIO.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include "core/error.hpp"
+
+namespace desslam::dense {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Open3D and OctoMap report failures on stderr only; naming the folder up front gives the
+// user the fix.
+void requireWritableTarget(const fs::path& path, const char* what) {
+  const fs::path parent = path.has_parent_path() ? path.parent_path() : fs::path(".");
+  if (!fs::is_directory(parent))
+    throw InputError(std::string("cannot write ") + what + " " + path.string() + ": folder " + parent.string() +
+                     " does not exist (create it or choose another --out)");
+}
+
+void writeCloud(const fs::path& path, const open3d::geometry::PointCloud& cloud, const char* what) {
+  requireWritableTarget(path, what);
+  const open3d::io::WritePointCloudOption binary(open3d::io::WritePointCloudOption::IsAscii::Binary,
+                                                 open3d::io::WritePointCloudOption::Compressed::Uncompressed);
+  if (!open3d::io::WritePointCloud(path.string(), cloud, binary))
+    throw InputError(std::string("cannot write ") + what + " " + path.string() +
+                     ": write failed (check permissions and free disk space)");
+}
+
+void writeTree(const fs::path& path, octomap::OcTree& tree) {
+  requireWritableTarget(path, "OctoMap");
+  if (!tree.writeBinary(path.string()))
+    throw InputError("cannot write OctoMap " + path.string() + ": write failed (check permissions and disk space)");
+}
+
+}  // namespace
+
+void writePly(const fs::path& path, const open3d::geometry::PointCloud& cloud) { writeCloud(path, cloud, "PLY"); }
+
+void writePcd(const fs::path& path, const open3d::geometry::PointCloud& cloud) { writeCloud(path, cloud, "PCD"); }
+
+std::shared_ptr<open3d::geometry::PointCloud> readPointCloud(const fs::path& path) {
+  if (!fs::is_regular_file(path)) throw InputError("point cloud " + path.string() + " does not exist");
+  auto cloud = std::make_shared<open3d::geometry::PointCloud>();
+  if (!open3d::io::ReadPointCloud(path.string(), *cloud))
+    throw InputError("cannot read point cloud " + path.string() + " (expected .ply, .pcd or .xyz)");
+  return cloud;
+}
+
+void writeOctomap(const fs::path& path, const std::vector<WorldScan>& scans, double resolution, double max_range) {
+  if (!(resolution > 0)) throw ConfigError("dense.octomap_resolution must be positive (metres)");
+  octomap::OcTree tree(resolution);
+  for (const WorldScan& scan : scans) {
+    octomap::Pointcloud points;
+    points.reserve(scan.points_w.size());
+    for (const Vec3& p : scan.points_w)
+      points.push_back(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z()));
+    const octomap::point3d origin(static_cast<float>(scan.origin_w.x()), static_cast<float>(scan.origin_w.y()),
+                                  static_cast<float>(scan.origin_w.z()));
+    // discretize: one ray per end cell rather than per point; the clouds are already voxelised.
+    tree.insertPointCloud(points, origin, max_range > 0 ? max_range : -1.0, /*lazy_eval=*/false,
+                          /*discretize=*/true);
+  }
+  writeTree(path, tree);
+}
+
+void writeOctomap(const fs::path& path, const open3d::geometry::PointCloud& cloud, double resolution) {
+  if (!(resolution > 0)) throw ConfigError("dense.octomap_resolution must be positive (metres)");
+  octomap::OcTree tree(resolution);
+  for (const Eigen::Vector3d& p : cloud.points_)
+    tree.updateNode(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z()), true,
+                    /*lazy_eval=*/true);
+  tree.updateInnerOccupancy();
+  writeTree(path, tree);
+}
+
+OctomapSummary readOctomap(const fs::path& path) {
+  if (!fs::is_regular_file(path)) throw InputError("OctoMap file " + path.string() + " does not exist");
+  octomap::OcTree tree(0.1);  // readBinary replaces the resolution with the file's
+  if (!tree.readBinary(path.string()))
+    throw InputError("cannot read OctoMap " + path.string() + ": not a binary OcTree (.bt) file");
+  OctomapSummary summary;
+  summary.resolution = tree.getResolution();
+  for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
+    ++summary.leaves;
+    const Vec3 centre(it.getX(), it.getY(), it.getZ());
+    (tree.isNodeOccupied(*it) ? summary.occupied_centres : summary.free_centres).push_back(centre);
+  }
+  return summary;
+}
+
+void renderPng(const fs::path& path, const open3d::geometry::PointCloud& cloud, const std::vector<SE3>& camera_path,
+               const RenderSettings& settings) {
+  requireWritableTarget(path, "PNG");
+  const cv::Mat image = renderMap(cloud, camera_path, settings);
+  if (!cv::imwrite(path.string(), image))
+    throw InputError("cannot write PNG " + path.string() + ": write failed (check the .png extension and permissions)");
+}
+
+}  // namespace desslam::dense

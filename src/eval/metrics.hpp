@@ -1,0 +1,45 @@
+// Trajectory accuracy: absolute trajectory error (ATE) and relative pose error (RPE), computed
+// the way TUM's evaluate_ate.py / evaluate_rpe.py do for RGB-D sequences.
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include "core/se3.hpp"
+#include "core/trajectory.hpp"
+
+namespace desslam::eval {
+
+// Summary of a list of errors. std is the population standard deviation (numpy's default);
+// median averages the two middle values of an even count. All zero when the list is empty.
+struct ErrorStats {
+  double rmse = 0, mean = 0, median = 0, std = 0, min = 0, max = 0;
+  std::size_t count = 0;
+};
+ErrorStats summarize(std::vector<double> errors);
+
+struct AteResult {
+  ErrorStats translation_m;  // |gt_i - T_gt_est * est_i| over the matched poses
+  SE3 T_gt_est;              // maps the estimate's world frame into the ground truth's
+  std::size_t matched = 0, gt_poses = 0, est_poses = 0;
+  bool alignment_unique = true;  // false: the estimate is collinear/stationary, T_gt_est is one of many
+};
+
+// Associates (max_dt seconds), aligns with one rigid SE(3), reports translation errors.
+// Throws InputError when fewer than 3 poses associate ("no timestamps within max_dt").
+AteResult computeAte(const Trajectory& gt, const Trajectory& est, double max_dt = 0.02);
+
+struct RpeResult {
+  ErrorStats translation_m;  // metres per delta_s
+  ErrorStats rotation_deg;   // degrees per delta_s
+  double delta_s = 1.0;
+  std::size_t pairs = 0;
+};
+
+// For each associated estimate pose i, the associated estimate pose j whose time is closest to
+// t_i + delta_s; error E = (gt_i^-1 gt_j)^-1 (est_i^-1 est_j). Pairs whose window would reach
+// past the last associated pose are skipped, so a trajectory shorter than delta_s gives 0 pairs.
+// Throws InputError when fewer than 2 poses associate or delta_s is not positive.
+RpeResult computeRpe(const Trajectory& gt, const Trajectory& est, double delta_s = 1.0, double max_dt = 0.02);
+
+}  // namespace desslam::eval

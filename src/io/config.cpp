@@ -1,0 +1,250 @@
+#include "io/config.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <type_traits>
+#include <vector>
+
+#include <yaml-cpp/yaml.h>
+
+#include "core/error.hpp"
+
+namespace desslam::io {
+namespace {
+
+// Where a value came from, for error messages: "config/tum_fr1.yaml" or "--set 'a.b=c'".
+struct Origin {
+  std::string source;
+  bool has_lines = true;  // false for --set: a one-line value has no useful line number
+  std::string at(const YAML::Node& node) const {
+    const YAML::Mark mark = node.Mark();
+    if (!has_lines || mark.is_null()) return source;
+    return source + ":" + std::to_string(mark.line + 1);
+  }
+};
+
+std::size_t editDistance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> prev(b.size() + 1), cur(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) prev[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    cur[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j)
+      cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1)});
+    std::swap(prev, cur);
+  }
+  return prev[b.size()];
+}
+
+std::string closest(const std::string& name, const std::vector<std::string>& known) {
+  return *std::min_element(known.begin(), known.end(), [&](const std::string& a, const std::string& b) {
+    return editDistance(name, a) < editDistance(name, b);
+  });
+}
+
+std::string joined(const std::vector<std::string>& names) {
+  std::string out;
+  for (const auto& n : names) out += (out.empty() ? "" : ", ") + n;
+  return out;
+}
+
+std::string shown(const YAML::Node& node) {
+  if (node.IsScalar()) return "'" + node.Scalar() + "'";
+  if (node.IsSequence()) return "a list";
+  if (node.IsMap()) return "a map";
+  return "nothing";
+}
+
+[[noreturn]] void wrongType(const Origin& origin, const YAML::Node& node, const std::string& key,
+                            const std::string& expected) {
+  throw ConfigError(origin.at(node) + ": config key " + key + ": expected " + expected + ", got " + shown(node));
+}
+
+// One reader per member type that fields() lists; `key` is "section.key".
+void readValue(const YAML::Node& node, double& out, const std::string& key, const Origin& origin) {
+  double v = 0;
+  if (!node.IsScalar() || !YAML::convert<double>::decode(node, v) || !std::isfinite(v))
+    wrongType(origin, node, key, "a number");
+  out = v;
+}
+
+void readValue(const YAML::Node& node, int& out, const std::string& key, const Origin& origin) {
+  int v = 0;
+  if (!node.IsScalar() || !YAML::convert<int>::decode(node, v)) wrongType(origin, node, key, "an integer");
+  out = v;
+}
+
+void readValue(const YAML::Node& node, bool& out, const std::string& key, const Origin& origin) {
+  bool v = false;
+  if (!node.IsScalar() || !YAML::convert<bool>::decode(node, v)) wrongType(origin, node, key, "true or false");
+  out = v;
+}
+
+void readValue(const YAML::Node& node, std::string& out, const std::string& key, const Origin& origin) {
+  if (node.IsNull()) {  // "model_path:" means empty, i.e. the default location
+    out.clear();
+    return;
+  }
+  if (!node.IsScalar()) wrongType(origin, node, key, "a string");
+  out = node.Scalar();
+}
+
+template <std::size_t N>
+void readValue(const YAML::Node& node, std::array<double, N>& out, const std::string& key, const Origin& origin) {
+  const std::string expected = "a list of " + std::to_string(N) + " numbers";
+  if (!node.IsSequence() || node.size() != N) wrongType(origin, node, key, expected);
+  std::array<double, N> v{};
+  for (std::size_t i = 0; i < N; ++i)
+    if (!node[i].IsScalar() || !YAML::convert<double>::decode(node[i], v[i]) || !std::isfinite(v[i]))
+      wrongType(origin, node[i], key + "[" + std::to_string(i) + "]", "a number");
+  out = v;
+}
+
+void readValue(const YAML::Node& node, std::vector<int>& out, const std::string& key, const Origin& origin) {
+  if (!node.IsSequence()) wrongType(origin, node, key, "a list of integers");
+  std::vector<int> v(node.size());
+  for (std::size_t i = 0; i < node.size(); ++i)
+    if (!node[i].IsScalar() || !YAML::convert<int>::decode(node[i], v[i]))
+      wrongType(origin, node[i], key + "[" + std::to_string(i) + "]", "an integer");
+  out = std::move(v);
+}
+
+// fields() visitor collecting key names.
+struct KeyLister {
+  std::vector<std::string> keys;
+  template <class T> void operator()(const char* key, T&) { keys.emplace_back(key); }
+};
+
+template <class Section> std::vector<std::string> keysOf(Section& section) {
+  KeyLister lister;
+  section.fields(lister);
+  return lister.keys;
+}
+
+// fields() visitor reading the keys present in a YAML map.
+struct SectionReader {
+  const YAML::Node& map;
+  std::string section;
+  const Origin& origin;
+  template <class T> void operator()(const char* key, T& member) {
+    const YAML::Node value = map[key];
+    if (!value.IsDefined()) return;  // absent: keep the default
+    readValue(value, member, section + "." + key, origin);
+  }
+};
+
+// Reads one section's YAML map into its options struct, rejecting unknown keys.
+template <class Section> void readSection(const YAML::Node& map, Section& section, const Origin& origin) {
+  const std::string name = Section::kSection;
+  if (map.IsNull()) return;  // "orb:" with nothing under it: all defaults
+  if (!map.IsMap())
+    throw ConfigError(origin.at(map) + ": config section " + name + " must be a map of 'key: value' lines, got " +
+                      shown(map));
+  const std::vector<std::string> known = keysOf(section);
+  for (const auto& item : map) {
+    const std::string key = item.first.as<std::string>();
+    if (std::find(known.begin(), known.end(), key) == known.end())
+      throw ConfigError(origin.at(item.first) + ": unknown config key " + name + "." + key + ": did you mean " + name +
+                        "." + closest(key, known) + "? (keys of " + name + ": " + joined(known) + ")");
+  }
+  SectionReader reader{map, name, origin};
+  section.fields(reader);
+}
+
+std::vector<std::string> sectionNames(SystemOptions& options) {
+  std::vector<std::string> names;
+  options.sections([&](auto& s) { names.emplace_back(std::decay_t<decltype(s)>::kSection); });
+  return names;
+}
+
+// Reads every section present in a top-level YAML map.
+void readSystem(const YAML::Node& root, SystemOptions& options, const Origin& origin) {
+  const std::vector<std::string> known = sectionNames(options);
+  for (const auto& item : root) {
+    const std::string name = item.first.as<std::string>();
+    if (std::find(known.begin(), known.end(), name) == known.end())
+      throw ConfigError(origin.at(item.first) + ": unknown config section '" + name + "': did you mean '" +
+                        closest(name, known) + "'? (sections: " + joined(known) + ")");
+  }
+  options.sections([&](auto& section) {
+    const YAML::Node map = root[std::decay_t<decltype(section)>::kSection];
+    if (map.IsDefined()) readSection(map, section, origin);
+  });
+}
+
+}  // namespace
+
+SystemOptions loadConfig(const std::filesystem::path& yaml) {
+  const std::string file = yaml.string();
+  if (!std::filesystem::is_regular_file(yaml))
+    throw ConfigError("config file '" + file + "' does not exist: pass a YAML file such as config/tum_fr1.yaml");
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(file);
+  } catch (const YAML::ParserException& e) {
+    throw ConfigError(file + ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1) +
+                      ": YAML syntax error: " + e.msg);
+  } catch (const YAML::Exception& e) {
+    throw ConfigError("cannot read config file '" + file + "': " + e.what());
+  }
+  const Origin origin{file};
+  if (!root.IsMap() || !root["camera"].IsDefined())
+    throw ConfigError(file + ": missing the required 'camera:' section (fx, fy, cx, cy, width, height, distortion, "
+                             "depth_factor, fps): start from a preset in config/");
+  const YAML::Node camera = root["camera"];
+  for (const char* key : {"fx", "fy", "cx", "cy"})
+    if (!camera.IsMap() || !camera[key].IsDefined())
+      throw ConfigError(origin.at(camera) + ": missing config key camera." + key +
+                        ": the intrinsics fx, fy, cx, cy have no default (see config/ presets)");
+
+  SystemOptions options;
+  readSystem(root, options, origin);
+  try {
+    options.validate();
+  } catch (const ConfigError& e) {
+    throw ConfigError(file + ": " + e.what());
+  }
+  return options;
+}
+
+void applyOverride(SystemOptions& options, const std::string& assignment) {
+  const Origin origin{"--set '" + assignment + "'", false};
+  const auto eq = assignment.find('=');
+  const auto dot = assignment.find('.');
+  if (eq == std::string::npos || dot == std::string::npos || dot > eq)
+    throw ConfigError(origin.source + ": expected section.key=value, e.g. dynamic.mode=geometric");
+  auto trim = [](std::string s) {
+    const auto b = s.find_first_not_of(" \t");
+    const auto e = s.find_last_not_of(" \t");
+    return b == std::string::npos ? std::string() : s.substr(b, e - b + 1);
+  };
+  const std::string section = trim(assignment.substr(0, dot));
+  const std::string key = trim(assignment.substr(dot + 1, eq - dot - 1));
+  const std::string value_text = assignment.substr(eq + 1);
+
+  YAML::Node value;
+  try {
+    value = YAML::Load(value_text);
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(origin.source + ": cannot read the value as YAML: " + e.msg);
+  }
+  // The same reader as for files, on a one-key document, so checks and messages match.
+  YAML::Node root;
+  root[section][key] = value;
+  readSystem(root, options, origin);
+}
+
+nlohmann::json optionsToJson(SystemOptions& options) {
+  nlohmann::json out = nlohmann::json::object();
+  options.sections([&](auto& section) {
+    nlohmann::json& entries = out[std::decay_t<decltype(section)>::kSection];
+    entries = nlohmann::json::object();
+    auto write = [&](const char* key, const auto& member) { entries[key] = member; };
+    section.fields(write);
+  });
+  return out;
+}
+
+}  // namespace desslam::io

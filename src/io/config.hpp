@@ -1,0 +1,31 @@
+// Configuration: one YAML file, one section per options struct (camera, orb, tracking, mapping,
+// dynamic, semantic, dense). Sections and keys come from each struct's fields() list, so a new
+// option needs no code here. Sections/keys may be omitted (defaults apply) except `camera:`,
+// whose fx, fy, cx, cy have no sensible default.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "core/options.hpp"
+
+namespace desslam::io {
+
+// Loads and validates a config. Throws ConfigError naming the file and "section.key" for: missing
+// file, YAML syntax error (with line), unknown section or key (with the closest known one),
+// wrong type ("expected a number"), missing camera section/intrinsics, failed validation.
+SystemOptions loadConfig(const std::filesystem::path& yaml);
+
+// Applies one "section.key=value" assignment (the command line's --set), e.g.
+// "dynamic.mode=geometric", "camera.distortion=[0,0,0,0,0]". The value is read as YAML.
+// Throws ConfigError naming the assignment on unknown keys or wrong types. Does not validate the
+// whole struct (several overrides may only make sense together): call options.validate() after.
+void applyOverride(SystemOptions& options, const std::string& assignment);
+
+// Every section and key with its value ({"camera": {"fx": ...}, ...}), for report.json.
+// Non-const only because the fields() visitors are; nothing is changed.
+nlohmann::json optionsToJson(SystemOptions& options);
+
+}  // namespace desslam::io

@@ -1,0 +1,71 @@
+// RGB-D sequences in the TUM layout (TUM RGB-D, Bonn RGB-D Dynamic): rgb/, depth/, rgb.txt and
+// depth.txt ("timestamp filename" per line, '#' comments), optional groundtruth.txt.
+// RGB and depth are separate streams with their own clocks; frames are paired by timestamp.
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "core/options.hpp"
+#include "core/trajectory.hpp"
+#include "core/types.hpp"
+
+namespace desslam::io {
+
+// One associated RGB/depth pair, as listed (nothing loaded yet).
+struct RgbdFrameRecord {
+  Timestamp rgb_timestamp = 0;
+  Timestamp depth_timestamp = 0;
+  std::filesystem::path rgb_path;    // absolute or relative to the working directory
+  std::filesystem::path depth_path;
+};
+
+// A loaded pair.
+struct RgbdImage {
+  Timestamp timestamp = 0;  // the RGB timestamp
+  cv::Mat bgr;              // CV_8UC3
+  cv::Mat depth;            // CV_32F metres (raw / depth_factor), 0 = no reading
+};
+
+class TumSequence {
+ public:
+  // Reads rgb.txt/depth.txt (and groundtruth.txt if present); pairs each RGB with the nearest depth
+  // within max_dt (as TUM's associate.py: greedy by smallest |dt|, one-to-one), sorted by time.
+  // Listed files that do not exist are skipped with one spdlog warning each.
+  // Throws InputError naming the folder/file for: missing folder, missing rgb.txt/depth.txt,
+  // malformed line, empty list, no pairs within max_dt ("timestamps do not match: ...").
+  static TumSequence open(const std::filesystem::path& dir, double max_dt = 0.02);
+
+  std::size_t size() const { return records_.size(); }
+  const RgbdFrameRecord& record(std::size_t i) const { return records_.at(i); }
+  const std::vector<RgbdFrameRecord>& records() const { return records_; }
+  const std::filesystem::path& directory() const { return directory_; }
+
+  // Loads frame i. Throws InputError naming the file: unreadable/corrupt PNG, depth not 16-bit
+  // single channel, size differs from camera width/height, RGB not 8-bit 3-channel.
+  // Depth is converted to metres with camera.depth_factor.
+  RgbdImage load(std::size_t i, const CameraOptions& camera) const;
+
+  // Ground truth (world-from-marker/camera poses) when groundtruth.txt exists.
+  const std::optional<Trajectory>& groundTruth() const { return ground_truth_; }
+  // What was skipped while opening, for the run report.
+  std::vector<std::string> warnings() const { return warnings_; }
+
+ private:
+  std::filesystem::path directory_;
+  std::vector<RgbdFrameRecord> records_;
+  std::optional<Trajectory> ground_truth_;
+  std::vector<std::string> warnings_;
+};
+
+// Wrong depth scale guard, for the first frames: throws InputError naming `file` when the median
+// valid depth is implausible for an indoor RGB-D camera (< 0.1 m or > 20 m), suggesting to check
+// camera.depth_factor. An image without any valid reading is not judged.
+void checkDepthScale(const cv::Mat& depth_m, const std::filesystem::path& file, double depth_factor);
+
+}  // namespace desslam::io

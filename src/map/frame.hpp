@@ -1,0 +1,46 @@
+// One tracked RGB-D frame: its features, its pose estimate and what its features matched.
+// Owned by the tracking thread alone (no lock); the map points it points at are guarded by the
+// Map lock.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/se3.hpp"
+#include "map/features.hpp"
+#include "map/map_types.hpp"
+
+namespace desslam::map {
+
+
+struct FeatureMatch {
+  MapPoint* point = nullptr;  // a map point, or
+  bool has_vo_point = false;  // a temporary point from the previous frame's depth (visual odometry)
+  Vec3 vo_point = Vec3::Zero();
+  bool outlier = false;
+  bool matched() const { return point != nullptr || has_vo_point; }
+};
+
+struct Frame {
+  uint64_t id = 0;
+  Timestamp timestamp = 0;
+  std::string image_name;
+  std::shared_ptr<const FeatureSet> features;
+  std::vector<FeatureStatus> status;  // per feature
+  std::vector<FeatureMatch> matches;  // per feature
+  SE3 T_c_w;
+  bool has_pose = false;
+
+  Frame() = default;
+  Frame(uint64_t id, Timestamp timestamp, std::string image_name, std::shared_ptr<const FeatureSet> features)
+      : id(id), timestamp(timestamp), image_name(std::move(image_name)), features(std::move(features)) {
+    status.assign(this->features->size(), FeatureStatus::kStatic);
+    matches.assign(this->features->size(), {});
+  }
+  bool usable(size_t i) const { return status[i] == FeatureStatus::kStatic; }
+  void clearMatches() { matches.assign(features->size(), {}); }
+};
+
+}  // namespace desslam::map

@@ -1,0 +1,282 @@
+#include "map/map.hpp"
+
+#include <algorithm>
+#include <limits>
+
+#include "feature/descriptor.hpp"
+
+namespace desslam::map {
+
+Keyframe* Map::createKeyframe(uint64_t frame_id, Timestamp timestamp, std::string image_name,
+                              std::shared_ptr<const FeatureSet> features, std::vector<FeatureStatus> status,
+                              const SE3& T_c_w) {
+  const uint64_t id = next_keyframe_id_++;
+  auto kf = std::make_unique<Keyframe>(id, frame_id, timestamp, std::move(image_name), std::move(features),
+                                       std::move(status), T_c_w);
+  Keyframe* raw = kf.get();
+  keyframes_.emplace(id, std::move(kf));
+  ++good_keyframes_;
+  return raw;
+}
+
+MapPoint* Map::createPoint(const Vec3& position, Keyframe* reference) {
+  const uint64_t id = next_point_id_++;
+  auto point = std::make_unique<MapPoint>(id, position, reference, reference != nullptr ? reference->id : 0);
+  MapPoint* raw = point.get();
+  points_.emplace(id, std::move(point));
+  ++good_points_;
+  return raw;
+}
+
+void Map::setPointBad(MapPoint* point) {
+  if (point->bad) return;
+  point->bad = true;
+  --good_points_;
+  for (auto& [kf_id, obs] : point->observations) {
+    Keyframe* kf = obs.first;
+    if (kf->points[obs.second] == point) kf->points[obs.second] = nullptr;
+  }
+  point->observations.clear();
+}
+
+void Map::setKeyframeBad(Keyframe* kf) {
+  if (kf->bad || kf->id == 0) return;  // the first keyframe anchors the map
+  for (auto& [id, entry] : kf->connection_weights) {
+    Keyframe* other = entry.first;
+    other->connection_weights.erase(kf->id);
+    auto& oc = other->ordered_connections;
+    oc.erase(std::remove(oc.begin(), oc.end(), kf), oc.end());
+  }
+  for (size_t i = 0; i < kf->points.size(); ++i) {
+    if (MapPoint* p = kf->points[i]) {
+      kf->points[i] = nullptr;
+      eraseObservation(*this, p, kf);
+    }
+  }
+  kf->connection_weights.clear();
+  kf->ordered_connections.clear();
+
+  // Re-attach children to the remaining keyframe (its parent or a sibling's tree) they share the
+  // most points with; the spanning tree must stay connected for pose propagation.
+  Keyframe* parent = kf->parent;
+  for (auto& [cid, child] : kf->children) {
+    Keyframe* best = parent;
+    int best_weight = -1;
+    for (auto& [oid, entry] : child->connection_weights) {
+      if (entry.first->bad || entry.first == kf) continue;
+      if (entry.second > best_weight && entry.first->id < child->id) {
+        best_weight = entry.second;
+        best = entry.first;
+      }
+    }
+    child->parent = best;
+    if (best != nullptr) best->children[child->id] = child;
+  }
+  kf->children.clear();
+  if (parent != nullptr) {
+    parent->children.erase(kf->id);
+    kf->T_c_parent = kf->T_c_w * parent->T_c_w.inverse();
+  }
+  kf->bad = true;
+  --good_keyframes_;
+}
+
+std::vector<Keyframe*> Map::keyframes() const {
+  std::vector<Keyframe*> out;
+  out.reserve(good_keyframes_);
+  for (const auto& [id, kf] : keyframes_)
+    if (!kf->bad) out.push_back(kf.get());
+  return out;
+}
+
+std::vector<Keyframe*> Map::allKeyframes() const {
+  std::vector<Keyframe*> out;
+  out.reserve(keyframes_.size());
+  for (const auto& [id, kf] : keyframes_) out.push_back(kf.get());
+  return out;
+}
+
+std::vector<MapPoint*> Map::points() const {
+  std::vector<MapPoint*> out;
+  out.reserve(good_points_);
+  for (const auto& [id, p] : points_)
+    if (!p->bad) out.push_back(p.get());
+  return out;
+}
+
+void addObservation(MapPoint* point, Keyframe* kf, int feature) {
+  point->observations[kf->id] = {kf, feature};
+  kf->points[feature] = point;
+}
+
+void eraseObservation(Map& map, MapPoint* point, Keyframe* kf) {
+  auto it = point->observations.find(kf->id);
+  if (it == point->observations.end()) return;
+  if (kf->points[it->second.second] == point) kf->points[it->second.second] = nullptr;
+  point->observations.erase(it);
+  if (point->reference == kf && !point->observations.empty()) point->reference = point->observations.begin()->second.first;
+  // An RGB-D point is still constrained with one observation, but one left by culling is untrusted.
+  if (point->observations.size() < 2) map.setPointBad(point);
+}
+
+void replacePoint(Map& map, MapPoint* from, MapPoint* to) {
+  if (from == to || from->bad) return;
+  for (auto& [kf_id, obs] : from->observations) {
+    Keyframe* kf = obs.first;
+    if (to->observations.count(kf_id) == 0) {
+      kf->points[obs.second] = to;
+      to->observations[kf_id] = obs;
+    } else {
+      kf->points[obs.second] = nullptr;
+    }
+  }
+  from->observations.clear();
+  to->visible += from->visible.load();
+  to->found += from->found.load();
+  from->replaced_by = to;
+  map.setPointBad(from);
+  updateDescriptor(to);
+}
+
+void updateDescriptor(MapPoint* point) {
+  std::vector<const uint8_t*> descriptors;
+  for (const auto& [kf_id, obs] : point->observations)
+    descriptors.push_back(obs.first->features->descriptor(obs.second));
+  if (descriptors.empty()) return;
+  const size_t n = descriptors.size();
+  std::vector<int> distances(n * n, 0);
+  for (size_t i = 0; i < n; ++i)
+    for (size_t j = i + 1; j < n; ++j)
+      distances[i * n + j] = distances[j * n + i] = feature::descriptorDistance(descriptors[i], descriptors[j]);
+  size_t best = 0;
+  int best_median = std::numeric_limits<int>::max();
+  std::vector<int> row(n);
+  for (size_t i = 0; i < n; ++i) {
+    std::copy(distances.begin() + i * n, distances.begin() + (i + 1) * n, row.begin());
+    std::nth_element(row.begin(), row.begin() + (n - 1) / 2, row.end());
+    if (row[(n - 1) / 2] < best_median) {
+      best_median = row[(n - 1) / 2];
+      best = i;
+    }
+  }
+  point->descriptor = cv::Mat(1, 32, CV_8U, const_cast<uint8_t*>(descriptors[best])).clone();
+}
+
+void updateNormalAndDepth(MapPoint* point) {
+  if (point->observations.empty() || point->reference == nullptr) return;
+  Vec3 normal = Vec3::Zero();
+  for (const auto& [kf_id, obs] : point->observations) normal += (point->position - obs.first->center()).normalized();
+  point->normal = normal.normalized();
+  const Keyframe* ref = point->reference;
+  auto it = point->observations.find(ref->id);
+  if (it == point->observations.end()) return;
+  const double distance = (point->position - ref->center()).norm();
+  const auto& pyramid = *ref->features->pyramid;
+  const int level = ref->features->level(it->second.second);
+  // Matchable from the finest to the coarsest pyramid level relative to where it was seen.
+  point->max_distance = distance * pyramid.scale[level];
+  point->min_distance = point->max_distance / pyramid.scale.back();
+}
+
+void updateConnections(Keyframe* kf, int min_weight) {
+  std::map<uint64_t, std::pair<Keyframe*, int>> counts;
+  for (MapPoint* p : kf->points) {
+    if (p == nullptr || p->bad) continue;
+    for (const auto& [other_id, obs] : p->observations) {
+      if (other_id == kf->id) continue;
+      auto& entry = counts[other_id];
+      entry.first = obs.first;
+      ++entry.second;
+    }
+  }
+  if (counts.empty()) return;
+
+  std::vector<std::pair<int, Keyframe*>> kept;
+  Keyframe* best = nullptr;
+  int best_weight = 0;
+  for (auto& [other_id, entry] : counts) {
+    if (entry.second > best_weight) {
+      best_weight = entry.second;
+      best = entry.first;
+    }
+    if (entry.second >= min_weight) kept.emplace_back(entry.second, entry.first);
+  }
+  if (kept.empty()) kept.emplace_back(best_weight, best);
+
+  // Old edges of kf are dropped on both sides, then the new ones added.
+  for (auto& [other_id, entry] : kf->connection_weights) {
+    Keyframe* other = entry.first;
+    other->connection_weights.erase(kf->id);
+    auto& oc = other->ordered_connections;
+    oc.erase(std::remove(oc.begin(), oc.end(), kf), oc.end());
+  }
+  kf->connection_weights.clear();
+  auto byWeightThenId = [](const Keyframe* owner) {
+    return [owner](Keyframe* a, Keyframe* b) {
+      const int wa = owner->connection_weights.at(a->id).second;
+      const int wb = owner->connection_weights.at(b->id).second;
+      return wa != wb ? wa > wb : a->id < b->id;
+    };
+  };
+  for (auto& [weight, other] : kept) {
+    kf->connection_weights[other->id] = {other, weight};
+    other->connection_weights[kf->id] = {kf, weight};
+    auto& oc = other->ordered_connections;
+    oc.erase(std::remove(oc.begin(), oc.end(), kf), oc.end());
+    oc.push_back(kf);
+    std::sort(oc.begin(), oc.end(), byWeightThenId(other));
+  }
+  kf->ordered_connections.clear();
+  for (auto& [weight, other] : kept) kf->ordered_connections.push_back(other);
+  std::sort(kf->ordered_connections.begin(), kf->ordered_connections.end(), byWeightThenId(kf));
+
+  // Spanning tree: a new keyframe hangs from its strongest older neighbour.
+  if (kf->parent == nullptr && kf->id != 0) {
+    for (Keyframe* candidate : kf->ordered_connections) {
+      if (candidate->id < kf->id && !candidate->bad) {
+        kf->parent = candidate;
+        candidate->children[kf->id] = kf;
+        break;
+      }
+    }
+  }
+}
+
+std::vector<Keyframe*> bestCovisibles(const Keyframe* kf, int n) {
+  std::vector<Keyframe*> out;
+  for (Keyframe* other : kf->ordered_connections) {
+    if (n > 0 && static_cast<int>(out.size()) >= n) break;
+    if (!other->bad) out.push_back(other);
+  }
+  return out;
+}
+
+std::vector<Keyframe*> covisiblesWithWeight(const Keyframe* kf, int min_weight) {
+  std::vector<Keyframe*> out;
+  for (Keyframe* other : kf->ordered_connections) {
+    if (other->bad) continue;
+    if (kf->connection_weights.at(other->id).second < min_weight) break;
+    out.push_back(other);
+  }
+  return out;
+}
+
+int trackedPointCount(const Keyframe* kf, int min_observations) {
+  int count = 0;
+  for (const MapPoint* p : kf->points)
+    if (p != nullptr && !p->bad && static_cast<int>(p->observations.size()) >= min_observations) ++count;
+  return count;
+}
+
+int predictLevel(const MapPoint* point, double distance, const feature::ScalePyramid& pyramid) {
+  const double ratio = point->max_distance / std::max(distance, 1e-9);
+  int level = static_cast<int>(std::ceil(std::log(ratio) / std::log(pyramid.scale[1])));
+  return std::clamp(level, 0, static_cast<int>(pyramid.scale.size()) - 1);
+}
+
+SE3 keyframeTcw(const Keyframe* kf) {
+  if (!kf->bad || kf->parent == nullptr) return kf->T_c_w;
+  return kf->T_c_parent * keyframeTcw(kf->parent);
+}
+
+}  // namespace desslam::map

@@ -1,0 +1,390 @@
+#include "mapping/local_mapper.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <mutex>
+#include <shared_mutex>
+
+#include <Eigen/SVD>
+
+#include "optim/bundle_adjustment.hpp"
+
+namespace desslam::mapping {
+
+namespace {
+constexpr double kChi2Mono = 5.991;
+constexpr double kChi2Rgbd = 7.815;
+constexpr double kChi2Epipolar = 3.84;
+constexpr double kMinFoundRatio = 0.25;  // recent points matched in under a quarter of the frames that see them go
+constexpr int kFuseNeighbours = 10;
+constexpr int kFuseSecondNeighbours = 5;
+constexpr double kFuseRadius = 3.0;
+constexpr size_t kMaxLocalKeyframes = 25;
+constexpr size_t kMaxFixedKeyframes = 30;
+
+// Observations weighted as in the ORB-SLAM2 paper's stereo/RGB-D case: one with depth counts
+// twice, since it constrains the point alone.
+int observationWeight(const map::MapPoint* p) {
+  int n = 0;
+  for (const auto& [id, obs] : p->observations) n += obs.first->features->hasDepth(obs.second) ? 2 : 1;
+  return n;
+}
+
+// Linear triangulation (DLT) from two views, normalised image coordinates.
+Vec3 triangulate(const Vec3& xn1, const Vec3& xn2, const SE3& T1, const SE3& T2) {
+  Eigen::Matrix<double, 3, 4> P1, P2;
+  P1 << T1.rotation(), T1.translation();
+  P2 << T2.rotation(), T2.translation();
+  Eigen::Matrix4d A;
+  A.row(0) = xn1.x() * P1.row(2) - P1.row(0);
+  A.row(1) = xn1.y() * P1.row(2) - P1.row(1);
+  A.row(2) = xn2.x() * P2.row(2) - P2.row(0);
+  A.row(3) = xn2.y() * P2.row(2) - P2.row(1);
+  Eigen::JacobiSVD<Eigen::Matrix4d> svd(A, Eigen::ComputeFullV);
+  const Eigen::Vector4d X = svd.matrixV().col(3);
+  return X.head<3>() / X(3);
+}
+}  // namespace
+
+LocalMapper::LocalMapper(const SystemOptions& options, const PinholeCamera& camera, map::Map& map)
+    : options_(options), camera_(camera), map_(map), bf_(camera.fx() * options.tracking.depth_baseline) {
+  matcher_options_.bf = bf_;
+}
+
+void LocalMapper::process(map::Keyframe* kf, const std::atomic<bool>* abort_ba) {
+  insertKeyframe(kf);
+  cullRecentPoints(kf);
+  triangulateNewPoints(kf);
+  fuseWithNeighbours(kf);
+  if (options_.mapping.local_ba) localBundleAdjustment(kf, abort_ba);
+  cullRedundantKeyframes(kf);
+  ++stats_.keyframes_processed;
+}
+
+void LocalMapper::insertKeyframe(map::Keyframe* kf) {
+  std::unique_lock lock(map_.mutex());
+  for (map::MapPoint* p : kf->points) {
+    if (p == nullptr || p->bad) continue;
+    if (p->created_at_keyframe == kf->id) {
+      recent_points_.push_back(p);
+    } else {
+      map::updateNormalAndDepth(p);
+      map::updateDescriptor(p);
+    }
+  }
+  map::updateConnections(kf);
+}
+
+void LocalMapper::cullRecentPoints(map::Keyframe* kf) {
+  std::unique_lock lock(map_.mutex());
+  std::vector<map::MapPoint*> kept;
+  for (map::MapPoint* p : recent_points_) {
+    if (p->bad) continue;
+    const uint64_t age = kf->id - p->created_at_keyframe;
+    if (p->foundRatio() < kMinFoundRatio || (age >= 2 && observationWeight(p) <= 3)) {
+      map_.setPointBad(p);
+      ++stats_.points_culled;
+    } else if (age < 3) {
+      kept.push_back(p);
+    }
+  }
+  recent_points_.swap(kept);
+}
+
+void LocalMapper::triangulateNewPoints(map::Keyframe* kf) {
+  struct Candidate {
+    map::Keyframe* neighbour;
+    int feature_kf, feature_neighbour;
+    Vec3 position;
+  };
+  std::vector<Candidate> accepted;
+  const map::FeatureSet& f1 = *kf->features;
+  const auto& pyramid = *f1.pyramid;
+  const double ratio_factor = 1.5 * pyramid.scale[1];
+  const Mat3 K_inv = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(camera_.K().ptr<double>()).inverse();
+  {
+    std::shared_lock lock(map_.mutex());
+    const SE3 T1 = kf->T_c_w;
+    const Vec3 c1 = kf->center();
+    std::vector<int> free1;
+    for (size_t i = 0; i < f1.size(); ++i)
+      if (kf->points[i] == nullptr && kf->usable(i)) free1.push_back(static_cast<int>(i));
+
+    for (map::Keyframe* nb : map::bestCovisibles(kf, options_.mapping.covisible_for_triangulation)) {
+      const map::FeatureSet& f2 = *nb->features;
+      const SE3 T2 = nb->T_c_w;
+      const Vec3 c2 = nb->center();
+      // Too short a baseline triangulates nothing depth did not already give.
+      if ((c2 - c1).norm() < options_.tracking.depth_baseline) continue;
+      std::vector<int> free2;
+      for (size_t i = 0; i < f2.size(); ++i)
+        if (nb->points[i] == nullptr && nb->usable(i)) free2.push_back(static_cast<int>(i));
+
+      // Fundamental matrix F21 (x2^T F21 x1 = 0) from the relative pose.
+      const SE3 T21 = T2 * T1.inverse();
+      const Mat3 F21 = K_inv.transpose() * skew(T21.translation()) * T21.rotation() * K_inv;
+      auto epipolar = [&](int i1, int i2) {
+        const Vec3 x1(f1.uv[i1].x(), f1.uv[i1].y(), 1.0);
+        const Vec3 line = F21 * x1;
+        const double num = line.dot(Vec3(f2.uv[i2].x(), f2.uv[i2].y(), 1.0));
+        const double den = line.head<2>().squaredNorm();
+        return den > 0 && num * num / den < kChi2Epipolar * pyramid.sigma2[f2.level(i2)];
+      };
+      const auto pairs = matching::matchDescriptors(f1, free1, f2, free2, matcher_options_.strict_distance, 0.7,
+                                                    false, epipolar);
+      for (auto [i1, i2] : pairs) {
+        const Vec3 xn1 = K_inv * Vec3(f1.uv[i1].x(), f1.uv[i1].y(), 1.0);
+        const Vec3 xn2 = K_inv * Vec3(f2.uv[i2].x(), f2.uv[i2].y(), 1.0);
+        const Vec3 ray1 = T1.rotation().transpose() * xn1;
+        const Vec3 ray2 = T2.rotation().transpose() * xn2;
+        const double cos_rays = ray1.dot(ray2) / (ray1.norm() * ray2.norm());
+        const double b = options_.tracking.depth_baseline;
+        const double cos_depth1 = f1.hasDepth(i1) ? std::cos(2 * std::atan2(b / 2, f1.depth[i1])) : 2.0;
+        const double cos_depth2 = f2.hasDepth(i2) ? std::cos(2 * std::atan2(b / 2, f2.depth[i2])) : 2.0;
+        const double cos_depth = std::min(cos_depth1, cos_depth2);
+        Vec3 X;
+        if (cos_rays < cos_depth && cos_rays > 0 && (f1.hasDepth(i1) || f2.hasDepth(i2) || cos_rays < 0.9998)) {
+          X = triangulate(xn1, xn2, T1, T2);
+        } else if (f1.hasDepth(i1) && cos_depth1 <= cos_depth2) {
+          X = T1.inverse() * camera_.backProject(f1.uv[i1], f1.depth[i1]);
+        } else if (f2.hasDepth(i2)) {
+          X = T2.inverse() * camera_.backProject(f2.uv[i2], f2.depth[i2]);
+        } else {
+          continue;  // no parallax and no depth
+        }
+        if (!X.allFinite()) continue;
+        // In front of both cameras, reprojecting within the keypoints' uncertainty.
+        bool ok = true;
+        for (int view = 0; view < 2 && ok; ++view) {
+          const SE3& T = view == 0 ? T1 : T2;
+          const map::FeatureSet& f = view == 0 ? f1 : f2;
+          const int i = view == 0 ? i1 : i2;
+          const Vec3 p_c = T * X;
+          if (p_c.z() <= 0) {
+            ok = false;
+            break;
+          }
+          double chi2 = (camera_.project(p_c) - f.uv[i]).squaredNorm();
+          double threshold = kChi2Mono;
+          if (f.hasDepth(i)) {
+            const double er = bf_ / p_c.z() - bf_ / f.depth[i];
+            chi2 += er * er;
+            threshold = kChi2Rgbd;
+          }
+          ok = chi2 * pyramid.inv_sigma2[f.level(i)] <= threshold;
+        }
+        if (!ok) continue;
+        // Scale consistency: distance ratio must agree with the pyramid levels' ratio.
+        const double d1 = (X - c1).norm(), d2 = (X - c2).norm();
+        if (d1 <= 0 || d2 <= 0) continue;
+        const double ratio_distance = d2 / d1;
+        const double ratio_octave = pyramid.scale[f1.level(i1)] / pyramid.scale[f2.level(i2)];
+        if (ratio_distance * ratio_factor < ratio_octave || ratio_distance > ratio_octave * ratio_factor) continue;
+        accepted.push_back({nb, i1, i2, X});
+        // A feature of kf is used once.
+        free1.erase(std::remove(free1.begin(), free1.end(), i1), free1.end());
+      }
+    }
+  }
+
+  std::unique_lock lock(map_.mutex());
+  for (const Candidate& c : accepted) {
+    if (kf->bad || c.neighbour->bad) continue;
+    if (kf->points[c.feature_kf] != nullptr || c.neighbour->points[c.feature_neighbour] != nullptr) continue;
+    map::MapPoint* p = map_.createPoint(c.position, kf);
+    map::addObservation(p, kf, c.feature_kf);
+    map::addObservation(p, c.neighbour, c.feature_neighbour);
+    map::updateDescriptor(p);
+    map::updateNormalAndDepth(p);
+    recent_points_.push_back(p);
+    ++stats_.points_triangulated;
+  }
+}
+
+void LocalMapper::fuseWithNeighbours(map::Keyframe* kf) {
+  std::unique_lock lock(map_.mutex());
+  std::map<uint64_t, map::Keyframe*> targets;
+  for (map::Keyframe* nb : map::bestCovisibles(kf, kFuseNeighbours)) {
+    targets.emplace(nb->id, nb);
+    for (map::Keyframe* nb2 : map::bestCovisibles(nb, kFuseSecondNeighbours))
+      if (nb2 != kf) targets.emplace(nb2->id, nb2);
+  }
+  // kf's points into its neighbours...
+  for (auto& [id, target] : targets) {
+    std::vector<map::MapPoint*> points;
+    for (map::MapPoint* p : kf->points)
+      if (p != nullptr && !p->bad) points.push_back(p);
+    matching::fuseIntoKeyframe(map_, target, points, camera_, kFuseRadius, matcher_options_);
+  }
+  // ...and the neighbours' points into kf.
+  std::vector<map::MapPoint*> candidates;
+  std::map<uint64_t, map::MapPoint*> unique;
+  for (auto& [id, target] : targets)
+    for (map::MapPoint* p : target->points)
+      if (p != nullptr && !p->bad) unique.emplace(p->id, p);
+  for (auto& [id, p] : unique) candidates.push_back(p);
+  matching::fuseIntoKeyframe(map_, kf, candidates, camera_, kFuseRadius, matcher_options_);
+
+  for (map::MapPoint* p : kf->points) {
+    if (p == nullptr || p->bad) continue;
+    map::updateDescriptor(p);
+    map::updateNormalAndDepth(p);
+  }
+  map::updateConnections(kf);
+}
+
+void LocalMapper::localBundleAdjustment(map::Keyframe* kf, const std::atomic<bool>* abort_ba) {
+  std::vector<map::Keyframe*> keyframes;  // local first, then fixed
+  std::vector<map::MapPoint*> points;
+  std::vector<optim::BaKeyframe> ba_keyframes;
+  std::vector<optim::BaPoint> ba_points;
+  std::vector<optim::BaObservation> ba_observations;
+  {
+    std::shared_lock lock(map_.mutex());
+    std::map<uint64_t, int> kf_index;
+    keyframes.push_back(kf);
+    for (map::Keyframe* nb : map::bestCovisibles(kf, 0)) {
+      if (keyframes.size() >= kMaxLocalKeyframes) break;
+      keyframes.push_back(nb);
+    }
+    const size_t local_count = keyframes.size();
+    for (size_t i = 0; i < keyframes.size(); ++i) kf_index[keyframes[i]->id] = static_cast<int>(i);
+
+    std::map<uint64_t, map::MapPoint*> unique_points;
+    for (size_t i = 0; i < local_count; ++i)
+      for (map::MapPoint* p : keyframes[i]->points)
+        if (p != nullptr && !p->bad) unique_points.emplace(p->id, p);
+    // Keyframes outside the local window that see local points hold the gauge, fixed.
+    std::map<uint64_t, std::pair<map::Keyframe*, int>> fixed_votes;
+    for (auto& [pid, p] : unique_points)
+      for (auto& [kid, obs] : p->observations)
+        if (kf_index.count(kid) == 0 && !obs.first->bad) {
+          auto& v = fixed_votes[kid];
+          v.first = obs.first;
+          ++v.second;
+        }
+    std::vector<std::pair<int, map::Keyframe*>> fixed;
+    for (auto& [kid, v] : fixed_votes) fixed.emplace_back(v.second, v.first);
+    std::sort(fixed.begin(), fixed.end(),
+              [](const auto& a, const auto& b) { return a.first != b.first ? a.first > b.first : a.second->id < b.second->id; });
+    for (auto& [votes, fkf] : fixed) {
+      if (keyframes.size() - local_count >= kMaxFixedKeyframes) break;
+      kf_index[fkf->id] = static_cast<int>(keyframes.size());
+      keyframes.push_back(fkf);
+    }
+    for (size_t i = 0; i < keyframes.size(); ++i)
+      ba_keyframes.push_back({keyframes[i]->T_c_w, i >= local_count || keyframes[i]->id == 0});
+    // With nothing fixed (early map) the oldest keyframe holds the gauge.
+    if (std::none_of(ba_keyframes.begin(), ba_keyframes.end(), [](const auto& k) { return k.fixed; })) {
+      auto oldest = std::min_element(keyframes.begin(), keyframes.end(),
+                                     [](const map::Keyframe* a, const map::Keyframe* b) { return a->id < b->id; });
+      ba_keyframes[oldest - keyframes.begin()].fixed = true;
+    }
+    if (ba_keyframes.size() < 2) return;
+
+    for (auto& [pid, p] : unique_points) {
+      const int point_index = static_cast<int>(points.size());
+      points.push_back(p);
+      ba_points.push_back({p->position});
+      for (auto& [kid, obs] : p->observations) {
+        auto it = kf_index.find(kid);
+        if (it == kf_index.end()) continue;
+        const map::FeatureSet& f = *obs.first->features;
+        const int i = obs.second;
+        optim::BaObservation o;
+        o.keyframe = it->second;
+        o.point = point_index;
+        o.obs.uv = f.uv[i];
+        o.obs.depth = f.hasDepth(i) ? f.depth[i] : -1.0;
+        o.obs.inv_sigma2 = f.pyramid->inv_sigma2[f.level(i)];
+        ba_observations.push_back(o);
+      }
+    }
+  }
+
+  optim::BundleAdjustmentOptions ba;
+  ba.bf = bf_;
+  ba.iterations = options_.mapping.local_ba_iterations;
+  const bool finished = optim::bundleAdjust(camera_, ba_keyframes, ba_points, ba_observations, ba, abort_ba);
+  ++stats_.ba_runs;
+  if (!finished) ++stats_.ba_aborted;
+
+  std::unique_lock lock(map_.mutex());
+  for (const optim::BaObservation& o : ba_observations) {
+    if (!o.outlier) continue;
+    map::MapPoint* p = points[o.point];
+    map::Keyframe* k = keyframes[o.keyframe];
+    if (!p->bad) map::eraseObservation(map_, p, k);
+  }
+  for (size_t i = 0; i < keyframes.size(); ++i)
+    if (!ba_keyframes[i].fixed && !keyframes[i]->bad) keyframes[i]->T_c_w = ba_keyframes[i].T_c_w;
+  for (size_t i = 0; i < points.size(); ++i) {
+    if (points[i]->bad) continue;
+    points[i]->position = ba_points[i].p_w;
+    map::updateNormalAndDepth(points[i]);
+  }
+}
+
+void LocalMapper::cullRedundantKeyframes(map::Keyframe* kf) {
+  std::unique_lock lock(map_.mutex());
+  for (map::Keyframe* candidate : map::bestCovisibles(kf, 0)) {
+    if (candidate->id == 0 || candidate->bad || candidate->not_erase) continue;
+    const map::FeatureSet& f = *candidate->features;
+    int considered = 0, redundant = 0;
+    for (size_t i = 0; i < candidate->points.size(); ++i) {
+      map::MapPoint* p = candidate->points[i];
+      if (p == nullptr || p->bad) continue;
+      // Only close depth-backed points count (far ones are weakly constrained anyway).
+      if (!f.hasDepth(i) || f.depth[i] > options_.tracking.close_depth) continue;
+      ++considered;
+      if (p->observations.size() <= 3) continue;
+      const int level = f.level(i);
+      int seen_by = 0;
+      for (auto& [oid, obs] : p->observations) {
+        if (obs.first == candidate) continue;
+        if (obs.first->features->level(obs.second) <= level + 1) ++seen_by;
+        if (seen_by >= 3) break;
+      }
+      if (seen_by >= 3) ++redundant;
+    }
+    if (considered > 0 && redundant > options_.mapping.redundant_keyframe_ratio * considered) {
+      map_.setKeyframeBad(candidate);
+      ++stats_.keyframes_culled;
+    }
+  }
+}
+
+LocalMappingThread::LocalMappingThread(LocalMapper& mapper) : mapper_(mapper), worker_([this] { run(); }) {}
+
+LocalMappingThread::~LocalMappingThread() { stop(); }
+
+void LocalMappingThread::push(map::Keyframe* kf) {
+  ++pending_;
+  abort_ba_ = true;  // a BA in progress yields to the newer keyframe
+  queue_.push(kf);
+}
+
+void LocalMappingThread::waitUntilIdle() {
+  std::unique_lock lock(idle_mutex_);
+  idle_cv_.wait(lock, [&] { return pending_.load() == 0; });
+}
+
+void LocalMappingThread::stop() {
+  queue_.close();
+  if (worker_.joinable()) worker_.join();
+}
+
+void LocalMappingThread::run() {
+  while (auto kf = queue_.pop()) {
+    abort_ba_ = queue_.size() > 0;
+    mapper_.process(*kf, &abort_ba_);
+    {
+      std::lock_guard lock(idle_mutex_);
+      --pending_;
+    }
+    idle_cv_.notify_all();
+  }
+}
+
+}  // namespace desslam::mapping

@@ -1,0 +1,83 @@
+// Local mapping: turns each new keyframe into map structure. Per keyframe: covisibility update,
+// culling of recent points that tracking does not confirm, new points by triangulation with
+// neighbouring keyframes, fusion of duplicated points, local bundle adjustment (Ceres) and
+// culling of redundant keyframes.
+//
+// Locking: reads happen under the Map lock held shared; every change under it held
+// exclusively, in short sections; bundle adjustment copies its problem out and solves unlocked.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "core/bounded_queue.hpp"
+#include "core/camera.hpp"
+#include "core/options.hpp"
+#include "map/map.hpp"
+#include "matching/matcher.hpp"
+
+namespace desslam::mapping {
+
+struct LocalMappingStats {
+  size_t keyframes_processed = 0;
+  size_t points_triangulated = 0;
+  size_t points_culled = 0;
+  size_t keyframes_culled = 0;
+  size_t ba_runs = 0;
+  size_t ba_aborted = 0;
+};
+
+class LocalMapper {
+ public:
+  LocalMapper(const SystemOptions& options, const PinholeCamera& camera, map::Map& map);
+
+  // abort_ba (may be null) stops bundle adjustment early when set (a newer keyframe is waiting).
+  void process(map::Keyframe* kf, const std::atomic<bool>* abort_ba);
+  const LocalMappingStats& stats() const { return stats_; }
+
+ private:
+  void insertKeyframe(map::Keyframe* kf);
+  void cullRecentPoints(map::Keyframe* kf);
+  void triangulateNewPoints(map::Keyframe* kf);
+  void fuseWithNeighbours(map::Keyframe* kf);
+  void localBundleAdjustment(map::Keyframe* kf, const std::atomic<bool>* abort_ba);
+  void cullRedundantKeyframes(map::Keyframe* kf);
+
+  SystemOptions options_;
+  PinholeCamera camera_;
+  map::Map& map_;
+  double bf_;
+  matching::MatcherOptions matcher_options_;
+  std::vector<map::MapPoint*> recent_points_;  // created recently, still on probation
+  LocalMappingStats stats_;
+};
+
+// The local mapping thread: consumes keyframes from tracking in order.
+// Queue: capacity 8, blocking (tracking waits only if mapping falls 8 keyframes behind).
+// idle() is true when no keyframe is queued or being processed (a keyframe criterion).
+class LocalMappingThread {
+ public:
+  LocalMappingThread(LocalMapper& mapper);
+  ~LocalMappingThread();
+  void push(map::Keyframe* kf);
+  bool idle() const { return pending_.load() == 0; }
+  // Blocks until every pushed keyframe has been processed.
+  void waitUntilIdle();
+  void stop();  // drains the queue and joins
+
+ private:
+  void run();
+  LocalMapper& mapper_;
+  BoundedQueue<map::Keyframe*> queue_{8, QueueFullPolicy::kBlock};
+  std::atomic<int> pending_{0};
+  std::atomic<bool> abort_ba_{false};
+  std::mutex idle_mutex_;  // guards nothing but the idle_cv_ wait
+  std::condition_variable idle_cv_;
+  std::thread worker_;
+};
+
+}  // namespace desslam::mapping

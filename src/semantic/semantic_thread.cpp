@@ -1,0 +1,152 @@
+#include "semantic/semantic_thread.hpp"
+
+#include <stdexcept>
+
+#include "core/error.hpp"
+
+namespace desslam::semantic {
+
+SemanticThread::SemanticThread(std::unique_ptr<Segmenter> segmenter, SemanticMode mode)
+    : segmenter_(std::move(segmenter)), mode_(mode) {
+  if (!segmenter_) throw std::invalid_argument("SemanticThread needs a segmenter (got nullptr)");
+  worker_ = std::thread([this] { run(); });
+}
+
+SemanticThread::~SemanticThread() { stop(); }
+
+void SemanticThread::submit(std::uint64_t frame_id, std::shared_ptr<const cv::Mat> bgr,
+                            std::string frame_name) {
+  if (!bgr) {
+    throw InputError("semantic thread: frame " + frame_name + " was submitted without an image");
+  }
+  std::unique_lock lock(mutex_);
+  if (mode_ == SemanticMode::kOffline) {
+    space_available_.wait(lock, [&] { return stopping_ || pending_.size() < kInputCapacity; });
+  }
+  if (stopping_) return;
+  if (any_submitted_ && frame_id <= last_submitted_id_) {
+    throw InputError("semantic thread: frame id " + std::to_string(frame_id) +
+                     " submitted after frame id " + std::to_string(last_submitted_id_) +
+                     "; frame ids must increase");
+  }
+  if (mode_ == SemanticMode::kRealtime) {
+    // Whatever still waits is stale now; the network should see the newest frame.
+    for (const Job& stale : pending_) in_flight_.erase(stale.frame_id);
+    dropped_ += pending_.size();
+    pending_.clear();
+  }
+  any_submitted_ = true;
+  last_submitted_id_ = frame_id;
+  in_flight_.insert(frame_id);
+  pending_.push_back(Job{frame_id, std::move(bgr), std::move(frame_name)});
+  job_available_.notify_one();
+  // Wakes waitFor() callers: on a frame just dropped (returns nullptr), or on this one.
+  result_ready_.notify_all();
+}
+
+std::shared_ptr<const Segmentation> SemanticThread::waitFor(std::uint64_t frame_id) {
+  std::unique_lock lock(mutex_);
+  // A frame not submitted yet is waited for; one submitted but neither in flight nor finished
+  // was dropped or already erased.
+  result_ready_.wait(lock, [&] {
+    const bool submitted = any_submitted_ && frame_id <= last_submitted_id_;
+    return stopping_ || finished_.count(frame_id) > 0 ||
+           (submitted && in_flight_.count(frame_id) == 0);
+  });
+  const auto it = finished_.find(frame_id);
+  if (it == finished_.end()) return nullptr;
+  Finished found = std::move(it->second);
+  finished_.erase(finished_.begin(), std::next(it));  // consumed, and older ones never will be
+  lock.unlock();
+  if (found.error) std::rethrow_exception(found.error);
+  return found.result;
+}
+
+std::shared_ptr<const Segmentation> SemanticThread::latest(std::uint64_t frame_id,
+                                                           std::uint64_t* result_frame_id) {
+  std::unique_lock lock(mutex_);
+  auto it = finished_.upper_bound(frame_id);
+  if (it == finished_.begin()) return nullptr;
+  --it;
+  // Errors come first: a failing segmenter must not be hidden behind a later good frame.
+  for (auto e = finished_.begin(); e != std::next(it); ++e) {
+    if (e->second.error) {
+      const std::exception_ptr error = e->second.error;
+      finished_.erase(finished_.begin(), std::next(e));
+      lock.unlock();
+      std::rethrow_exception(error);
+    }
+  }
+  // Keep the one handed out (it stays the newest <= a later request until a newer one finishes).
+  finished_.erase(finished_.begin(), it);
+  if (result_frame_id != nullptr) *result_frame_id = it->first;
+  return it->second.result;
+}
+
+void SemanticThread::stop() {
+  {
+    std::lock_guard lock(mutex_);
+    if (!stopping_) {
+      stopping_ = true;
+      dropped_ += pending_.size();
+      for (const Job& job : pending_) in_flight_.erase(job.frame_id);
+      pending_.clear();
+    }
+  }
+  job_available_.notify_all();
+  space_available_.notify_all();
+  result_ready_.notify_all();
+  // join() from two threads at once is a data race; stop() may come from several.
+  std::lock_guard join_lock(join_mutex_);
+  if (worker_.joinable()) worker_.join();
+}
+
+std::size_t SemanticThread::segmentedCount() const {
+  std::lock_guard lock(mutex_);
+  return segmented_;
+}
+
+std::size_t SemanticThread::droppedCount() const {
+  std::lock_guard lock(mutex_);
+  return dropped_;
+}
+
+std::size_t SemanticThread::storedResultCount() const {
+  std::lock_guard lock(mutex_);
+  return finished_.size();
+}
+
+void SemanticThread::run() {
+  for (;;) {
+    Job job;
+    {
+      std::unique_lock lock(mutex_);
+      job_available_.wait(lock, [&] { return stopping_ || !pending_.empty(); });
+      if (stopping_) return;
+      job = std::move(pending_.front());
+      pending_.pop_front();
+    }
+    space_available_.notify_one();
+
+    Finished done;
+    try {
+      done.result =
+          std::make_shared<const Segmentation>(segmenter_->segment(*job.bgr, job.frame_name));
+    } catch (...) {
+      done.error = std::current_exception();  // handed to the consumer of this frame
+    }
+
+    {
+      std::lock_guard lock(mutex_);
+      in_flight_.erase(job.frame_id);
+      if (done.result) ++segmented_;
+      finished_[job.frame_id] = std::move(done);
+      if (mode_ == SemanticMode::kRealtime) {
+        while (finished_.size() > kMaxRealtimeResults) finished_.erase(finished_.begin());
+      }
+    }
+    result_ready_.notify_all();
+  }
+}
+
+}  // namespace desslam::semantic

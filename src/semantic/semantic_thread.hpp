@@ -1,0 +1,111 @@
+// The semantic thread: segments frame k on its own worker while tracking extracts ORB features
+// of frame k, so the network's latency overlaps with feature extraction.
+//
+// Modes
+//   kOffline:  every submitted frame is segmented; submit() blocks while 2 frames already wait;
+//              waitFor(k) blocks until frame k's result is ready (reproducible runs).
+//   kRealtime: submit() never blocks; a frame still waiting when a newer one arrives is dropped
+//              (the network always works on the newest frame); latest(k) never waits and hands
+//              back the newest finished result with id <= k, which tracking carries forward.
+//
+// Lock discipline: one mutex (mutex_) guards the pending input, finished results, in-flight ids,
+// counters and the stop flag; three condition variables wait on it. join_mutex_ only serialises
+// joining the worker in stop() and is never held together with mutex_.
+// The Segmenter is touched only by the worker thread and is called with the mutex released, so
+// submit()/latest() never wait for the network. Results are immutable shared objects: a caller
+// keeps its shared_ptr as long as it likes after the thread has forgotten it.
+//
+// Memory: a result is erased once consumed (waitFor) or when it is older than the newest result
+// handed out by latest(); at most kMaxRealtimeResults finished results are kept in real-time mode.
+#pragma once
+
+#include <condition_variable>
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <exception>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <set>
+#include <string>
+#include <thread>
+
+#include <opencv2/core/mat.hpp>
+
+#include "semantic/segmenter.hpp"
+
+namespace desslam::semantic {
+
+enum class SemanticMode { kOffline, kRealtime };
+
+class SemanticThread {
+ public:
+  static constexpr std::size_t kInputCapacity = 2;        // offline: submit() blocks beyond this
+  static constexpr std::size_t kMaxRealtimeResults = 4;   // real-time: older results are dropped
+
+  // segmenter must not be null (throws std::invalid_argument). Starts the worker.
+  SemanticThread(std::unique_ptr<Segmenter> segmenter, SemanticMode mode);
+  ~SemanticThread();  // stop() and join
+  SemanticThread(const SemanticThread&) = delete;
+  SemanticThread& operator=(const SemanticThread&) = delete;
+
+  // Queues a frame. frame_id must increase from call to call (InputError otherwise). The image is
+  // shared, not copied: the caller must not write to its pixels afterwards. After stop() the frame
+  // is ignored.
+  void submit(std::uint64_t frame_id, std::shared_ptr<const cv::Mat> bgr, std::string frame_name);
+
+  // Blocks until frame_id's result is ready and returns it; results of older frames are erased.
+  // A frame not submitted yet is waited for (another thread may submit it). Returns nullptr when
+  // the frame was dropped (real-time), its result was already erased, or stop() was called.
+  // If the segmenter threw for this frame, rethrows that exception here.
+  std::shared_ptr<const Segmentation> waitFor(std::uint64_t frame_id);
+
+  // Never waits: the newest finished result with id <= frame_id (nullptr if none yet), its id in
+  // *result_frame_id (if not null). Older results are erased. Rethrows a segmenter exception of a
+  // frame with id <= frame_id (once).
+  std::shared_ptr<const Segmentation> latest(std::uint64_t frame_id, std::uint64_t* result_frame_id);
+
+  // Stops the worker after the frame it is on (waiting frames are discarded), wakes every waiting
+  // caller (they return nullptr) and joins. Idempotent.
+  void stop();
+
+  SemanticMode mode() const { return mode_; }
+  std::size_t segmentedCount() const;  // frames segmented successfully
+  std::size_t droppedCount() const;    // frames dropped unsegmented (real-time mode, or at stop())
+  std::size_t storedResultCount() const;  // finished results not yet erased (memory check)
+
+ private:
+  struct Job {
+    std::uint64_t frame_id;
+    std::shared_ptr<const cv::Mat> bgr;
+    std::string frame_name;
+  };
+  struct Finished {
+    std::shared_ptr<const Segmentation> result;
+    std::exception_ptr error;  // set when the segmenter threw
+  };
+
+  void run();  // the worker loop
+
+  std::unique_ptr<Segmenter> segmenter_;  // worker thread only
+  const SemanticMode mode_;
+
+  mutable std::mutex mutex_;
+  std::condition_variable job_available_;  // worker waits: pending_ non-empty or stopping
+  std::condition_variable space_available_;  // offline submit() waits: pending_ below capacity
+  std::condition_variable result_ready_;   // waitFor() waits: its result, its drop, or stopping
+  std::deque<Job> pending_;
+  std::map<std::uint64_t, Finished> finished_;
+  std::set<std::uint64_t> in_flight_;  // submitted, not finished and not dropped
+  bool any_submitted_ = false;
+  std::uint64_t last_submitted_id_ = 0;
+  bool stopping_ = false;
+  std::size_t segmented_ = 0;
+  std::size_t dropped_ = 0;
+
+  std::mutex join_mutex_;  // serialises worker_.join() (not part of the discipline above)
+  std::thread worker_;  // declared last: starts after every member above is constructed
+};
+
+}  // namespace desslam::semantic

@@ -1,0 +1,401 @@
+#include "tracking/tracker.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <mutex>
+#include <shared_mutex>
+
+#include "optim/pose_optimizer.hpp"
+
+namespace desslam::tracking {
+
+namespace {
+constexpr int kMinInitialPoints = 300;     // depth-backed features needed to start a map
+constexpr int kMinMotionMatches = 20;      // below: widen the window once, then give up
+constexpr int kMinMapInliersStep = 10;     // after motion-model / reference-keyframe tracking
+constexpr int kMinLocalMapInliers = 30;    // after local-map tracking
+constexpr double kMotionRadius = 7.0;      // pixels at level 0, frame-to-frame window
+constexpr double kLocalMapRadius = 3.0;    // RGB-D local-map window factor
+constexpr int kCloseTrackedNeeded = 100;   // "need close points" keyframe criterion
+constexpr int kCloseUntrackedEnough = 70;
+constexpr int kMinNewDepthPoints = 100;    // a keyframe gets at least this many depth points
+}  // namespace
+
+Tracker::Tracker(const SystemOptions& options, const PinholeCamera& camera, map::Map& map)
+    : options_(options), camera_(camera), map_(map), bf_(camera.fx() * options.tracking.depth_baseline) {
+  matcher_options_.bf = bf_;
+}
+
+TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle) {
+  TrackOutcome outcome;
+  if (state_ == TrackingState::kNotInitialized) {
+    initialize(frame, outcome);
+    return outcome;
+  }
+
+  // The previous frame's pose follows its reference keyframe, which local BA may have moved.
+  if (last_reference_ != nullptr) {
+    std::shared_lock lock(map_.mutex());
+    last_frame_.T_c_w = last_T_c_r_ * map::keyframeTcw(last_reference_);
+  }
+
+  bool ok = false;
+  if (state_ == TrackingState::kOk && velocity_) {
+    ok = trackWithMotionModel(frame);
+    outcome.used_motion_model = ok;
+  }
+  if (!ok) ok = trackReferenceKeyframe(frame);
+  int inliers = 0;
+  if (ok) ok = trackLocalMap(frame, inliers);
+  outcome.inliers = inliers;
+
+  if (!ok) {
+    state_ = TrackingState::kLost;
+    velocity_.reset();
+    ++lost_frames_;
+    records_.push_back({frame.id, frame.timestamp, nullptr, SE3()});
+    return outcome;
+  }
+
+  state_ = TrackingState::kOk;
+  frame.has_pose = true;
+  outcome.tracked = true;
+  velocity_ = frame.T_c_w * last_frame_.T_c_w.inverse();
+  if (needKeyframe(frame, inliers, mapping_idle)) outcome.new_keyframe = createKeyframe(frame);
+
+  {
+    std::shared_lock lock(map_.mutex());
+    last_T_c_r_ = frame.T_c_w * reference_keyframe_->T_c_w.inverse();
+  }
+  last_reference_ = reference_keyframe_;
+  records_.push_back({frame.id, frame.timestamp, reference_keyframe_, last_T_c_r_});
+  // Visual-odometry matches only serve the next frame's motion-model search.
+  last_frame_ = frame;
+  return outcome;
+}
+
+bool Tracker::initialize(map::Frame& frame, TrackOutcome& outcome) {
+  int with_depth = 0;
+  for (size_t i = 0; i < frame.features->size(); ++i)
+    if (frame.usable(i) && frame.features->hasDepth(i)) ++with_depth;
+  if (with_depth < kMinInitialPoints) {
+    records_.push_back({frame.id, frame.timestamp, nullptr, SE3()});
+    return false;
+  }
+  frame.T_c_w = SE3::identity();
+  frame.has_pose = true;
+  map::Keyframe* kf = nullptr;
+  {
+    std::unique_lock lock(map_.mutex());
+    kf = map_.createKeyframe(frame.id, frame.timestamp, frame.image_name, frame.features, frame.status, frame.T_c_w);
+    for (size_t i = 0; i < frame.features->size(); ++i) {
+      if (!frame.usable(i) || !frame.features->hasDepth(i)) continue;
+      map::MapPoint* p = map_.createPoint(camera_.backProject(frame.features->uv[i], frame.features->depth[i]), kf);
+      map::addObservation(p, kf, static_cast<int>(i));
+      map::updateDescriptor(p);
+      map::updateNormalAndDepth(p);
+      frame.matches[i].point = p;
+    }
+  }
+  reference_keyframe_ = last_keyframe_ = kf;
+  last_keyframe_frame_id_ = frame.id;
+  local_keyframes_ = {kf};
+  state_ = TrackingState::kOk;
+  last_reference_ = kf;
+  last_T_c_r_ = SE3::identity();
+  last_frame_ = frame;
+  records_.push_back({frame.id, frame.timestamp, kf, SE3::identity()});
+  outcome.tracked = true;
+  outcome.new_keyframe = kf;
+  return true;
+}
+
+bool Tracker::trackWithMotionModel(map::Frame& frame) {
+  frame.T_c_w = *velocity_ * last_frame_.T_c_w;
+  const map::FeatureSet& last = *last_frame_.features;
+  const auto& pyramid = *last.pyramid;
+  const int top_level = static_cast<int>(pyramid.scale.size()) - 1;
+
+  // Candidates: the previous frame's matched points, plus temporary points from its depth for
+  // close features without a match (they keep tracking alive where the map is thin).
+  std::vector<matching::ProjectionCandidate> candidates;
+  {
+    std::shared_lock lock(map_.mutex());
+    for (size_t i = 0; i < last.size(); ++i) {
+      if (!last_frame_.usable(i)) continue;
+      const map::FeatureMatch& m = last_frame_.matches[i];
+      matching::ProjectionCandidate c;
+      if (m.point != nullptr && !m.outlier && !m.point->bad) {
+        c.p_w = m.point->position;
+        c.point = m.point;
+      } else if (last.hasDepth(i) && last.depth[i] <= options_.tracking.close_depth) {
+        c.p_w = last_frame_.T_c_w.inverse() * camera_.backProject(last.uv[i], last.depth[i]);
+      } else {
+        continue;
+      }
+      const int level = last.level(i);
+      c.descriptor = last.descriptor(i);
+      c.min_level = std::max(0, level - 1);
+      c.max_level = std::min(top_level, level + 1);
+      c.radius = kMotionRadius * pyramid.scale[level];
+      c.angle = last.keypoints[i].angle;
+      candidates.push_back(c);
+    }
+  }
+  frame.clearMatches();
+  int matches = matching::searchByProjection(frame, camera_, candidates, matcher_options_);
+  if (matches < kMinMotionMatches) {
+    frame.clearMatches();
+    for (auto& c : candidates) c.radius *= 2.0;
+    matches = matching::searchByProjection(frame, camera_, candidates, matcher_options_);
+  }
+  if (matches < kMinMotionMatches) return false;
+  return optimizeFramePose(frame) >= kMinMapInliersStep;
+}
+
+bool Tracker::trackReferenceKeyframe(map::Frame& frame) {
+  if (reference_keyframe_ == nullptr) return false;
+  frame.clearMatches();
+  std::vector<int> kf_indices, frame_indices;
+  std::vector<map::MapPoint*> kf_points;
+  {
+    std::shared_lock lock(map_.mutex());
+    kf_points = reference_keyframe_->points;
+  }
+  for (size_t i = 0; i < kf_points.size(); ++i)
+    if (kf_points[i] != nullptr) kf_indices.push_back(static_cast<int>(i));
+  for (size_t i = 0; i < frame.features->size(); ++i)
+    if (frame.usable(i)) frame_indices.push_back(static_cast<int>(i));
+  const auto pairs = matching::matchDescriptors(*reference_keyframe_->features, kf_indices, *frame.features,
+                                                frame_indices, matcher_options_.strict_distance, 0.7, true);
+  if (static_cast<int>(pairs.size()) < 15) return false;
+  {
+    std::shared_lock lock(map_.mutex());
+    for (auto [ikf, iframe] : pairs) {
+      map::MapPoint* p = kf_points[ikf];
+      if (p->bad) continue;
+      frame.matches[iframe].point = p;
+    }
+  }
+  frame.T_c_w = last_frame_.T_c_w;
+  return optimizeFramePose(frame) >= kMinMapInliersStep;
+}
+
+int Tracker::optimizeFramePose(map::Frame& frame) {
+  const map::FeatureSet& features = *frame.features;
+  const auto& pyramid = *features.pyramid;
+  std::vector<optim::PoseObservation> observations;
+  std::vector<int> feature_of;
+  {
+    std::shared_lock lock(map_.mutex());
+    for (size_t i = 0; i < features.size(); ++i) {
+      map::FeatureMatch& m = frame.matches[i];
+      if (!m.matched()) continue;
+      if (m.point != nullptr && m.point->bad) {
+        m = {};
+        continue;
+      }
+      optim::PoseObservation o;
+      o.obs.uv = features.uv[i];
+      o.obs.depth = features.hasDepth(i) ? features.depth[i] : -1.0;
+      o.obs.inv_sigma2 = pyramid.inv_sigma2[features.level(i)];
+      o.point_w = m.point != nullptr ? m.point->position : m.vo_point;
+      observations.push_back(o);
+      feature_of.push_back(static_cast<int>(i));
+    }
+  }
+  if (observations.size() < 6) return 0;
+  optim::PoseOptimizerOptions po;
+  po.bf = bf_;
+  optim::optimizePose(camera_, frame.T_c_w, observations, po);
+  int map_inliers = 0;
+  for (size_t k = 0; k < observations.size(); ++k) {
+    map::FeatureMatch& m = frame.matches[feature_of[k]];
+    if (observations[k].outlier) {
+      m = {};
+    } else if (m.point != nullptr) {
+      ++map_inliers;
+    }
+  }
+  return map_inliers;
+}
+
+void Tracker::updateLocalMap(const map::Frame& frame) {
+  // Keyframes voting by the points the frame sees; the most voted becomes the reference.
+  std::map<uint64_t, std::pair<map::Keyframe*, int>> votes;
+  for (const map::FeatureMatch& m : frame.matches) {
+    if (m.point == nullptr || m.point->bad) continue;
+    for (const auto& [kf_id, obs] : m.point->observations) {
+      auto& v = votes[kf_id];
+      v.first = obs.first;
+      ++v.second;
+    }
+  }
+  if (votes.empty()) return;
+  local_keyframes_.clear();
+  std::map<uint64_t, map::Keyframe*> chosen;
+  map::Keyframe* best = nullptr;
+  int best_votes = 0;
+  std::vector<std::pair<int, map::Keyframe*>> voted;
+  for (auto& [id, v] : votes) {
+    if (v.first->bad) continue;
+    voted.emplace_back(v.second, v.first);
+    if (v.second > best_votes) {
+      best_votes = v.second;
+      best = v.first;
+    }
+  }
+  std::sort(voted.begin(), voted.end(),
+            [](const auto& a, const auto& b) { return a.first != b.first ? a.first > b.first : a.second->id < b.second->id; });
+  const size_t limit = static_cast<size_t>(options_.tracking.local_map_keyframes);
+  for (auto& [n, kf] : voted) {
+    if (chosen.size() >= limit) break;
+    chosen[kf->id] = kf;
+  }
+  // Neighbours of the voted keyframes widen the local map.
+  for (auto& [n, kf] : voted) {
+    if (chosen.size() >= limit) break;
+    for (map::Keyframe* neighbour : map::bestCovisibles(kf, 10)) {
+      if (chosen.size() >= limit) break;
+      chosen.emplace(neighbour->id, neighbour);
+    }
+    if (kf->parent != nullptr && !kf->parent->bad && chosen.size() < limit) chosen.emplace(kf->parent->id, kf->parent);
+  }
+  for (auto& [id, kf] : chosen) local_keyframes_.push_back(kf);
+  if (best != nullptr) reference_keyframe_ = best;
+
+  local_points_.clear();
+  for (map::Keyframe* kf : local_keyframes_) {
+    for (map::MapPoint* p : kf->points) {
+      if (p == nullptr || p->bad) continue;
+      if (point_stamp_.size() <= p->id) point_stamp_.resize(p->id * 2 + 1024, UINT64_MAX);
+      if (point_stamp_[p->id] == frame.id) continue;
+      point_stamp_[p->id] = frame.id;
+      local_points_.push_back(p);
+    }
+  }
+}
+
+bool Tracker::trackLocalMap(map::Frame& frame, int& inliers) {
+  const map::FeatureSet& features = *frame.features;
+  const auto& pyramid = *features.pyramid;
+  const Vec3 center = frame.T_c_w.inverse().translation();
+  std::vector<matching::ProjectionCandidate> candidates;
+  {
+    std::shared_lock lock(map_.mutex());
+    updateLocalMap(frame);
+    std::vector<uint64_t> matched_ids;
+    for (const map::FeatureMatch& m : frame.matches)
+      if (m.point != nullptr) matched_ids.push_back(m.point->id);
+    std::sort(matched_ids.begin(), matched_ids.end());
+    for (map::MapPoint* p : local_points_) {
+      if (std::binary_search(matched_ids.begin(), matched_ids.end(), p->id)) continue;
+      // Frustum and scale-invariance checks.
+      const Vec3 p_c = frame.T_c_w * p->position;
+      if (p_c.z() <= 0.05) continue;
+      const Vec2 uv = camera_.project(p_c);
+      if (!camera_.inImage(uv)) continue;
+      const Vec3 ray = p->position - center;
+      const double distance = ray.norm();
+      if (distance < p->min_distance * 0.8 || distance > p->max_distance * 1.2) continue;
+      const double view_cos = ray.dot(p->normal) / distance;
+      if (view_cos < 0.5) continue;
+      ++p->visible;
+      const int level = map::predictLevel(p, distance, pyramid);
+      matching::ProjectionCandidate c;
+      c.p_w = p->position;
+      c.point = p;
+      c.descriptor = p->descriptor.ptr<uint8_t>();
+      c.min_level = std::max(0, level - 1);
+      c.max_level = level;
+      c.radius = kLocalMapRadius * (view_cos > 0.998 ? 2.5 : 4.0) * pyramid.scale[level];
+      candidates.push_back(c);
+    }
+    // The search reads the candidates' map-point descriptors: keep the shared lock.
+    matching::searchByProjection(frame, camera_, candidates, matcher_options_);
+  }
+  inliers = optimizeFramePose(frame);
+  {
+    std::shared_lock lock(map_.mutex());
+    for (const map::FeatureMatch& m : frame.matches)
+      if (m.point != nullptr && !m.point->bad) ++m.point->found;
+  }
+  return inliers >= kMinLocalMapInliers;
+}
+
+bool Tracker::needKeyframe(const map::Frame& frame, int inliers, bool mapping_idle) const {
+  const auto& t = options_.tracking;
+  const uint64_t since_last = frame.id - last_keyframe_frame_id_;
+  if (static_cast<int>(since_last) < t.min_frames_between_keyframes) return false;
+
+  int reference_tracked = 0;
+  SE3 T_c_lastkf;
+  size_t keyframes = 0;
+  {
+    std::shared_lock lock(map_.mutex());
+    keyframes = map_.keyframeCount();
+    reference_tracked = map::trackedPointCount(reference_keyframe_, keyframes <= 2 ? 2 : 3);
+    T_c_lastkf = frame.T_c_w * map::keyframeTcw(last_keyframe_).inverse();
+  }
+  const map::FeatureSet& features = *frame.features;
+  int tracked_close = 0, untracked_close = 0;
+  for (size_t i = 0; i < features.size(); ++i) {
+    if (!frame.usable(i) || !features.hasDepth(i) || features.depth[i] > t.close_depth) continue;
+    const map::FeatureMatch& m = frame.matches[i];
+    if (m.point != nullptr && !m.outlier)
+      ++tracked_close;
+    else
+      ++untracked_close;
+  }
+  const bool need_close = tracked_close < kCloseTrackedNeeded && untracked_close > kCloseUntrackedEnough;
+  const double ratio = keyframes < 2 ? 0.4 : t.keyframe_tracked_ratio;
+
+  const bool timeout = static_cast<int>(since_last) >= t.max_frames_between_keyframes;
+  const bool weak = inliers < 0.25 * reference_tracked || need_close;
+  const bool fewer_than_reference = (inliers < ratio * reference_tracked || need_close) && inliers > 15;
+  // Pose-change criterion: a fast turn or move gets a keyframe even if matching still holds.
+  const bool moved = T_c_lastkf.translation().norm() > t.keyframe_translation ||
+                     T_c_lastkf.rotationAngle() * 180.0 / M_PI > t.keyframe_rotation_deg;
+  return ((timeout || mapping_idle || weak) && fewer_than_reference) || (moved && inliers > 15);
+}
+
+map::Keyframe* Tracker::createKeyframe(map::Frame& frame) {
+  map::Keyframe* kf = nullptr;
+  {
+    std::unique_lock lock(map_.mutex());
+    kf = map_.createKeyframe(frame.id, frame.timestamp, frame.image_name, frame.features, frame.status, frame.T_c_w);
+    for (size_t i = 0; i < frame.matches.size(); ++i) {
+      map::MapPoint* p = frame.matches[i].point;
+      if (p != nullptr && !p->bad && !frame.matches[i].outlier && p->observations.count(kf->id) == 0)
+        map::addObservation(p, kf, static_cast<int>(i));
+    }
+    createDepthPoints(frame, kf);
+  }
+  reference_keyframe_ = last_keyframe_ = kf;
+  last_keyframe_frame_id_ = frame.id;
+  return kf;
+}
+
+void Tracker::createDepthPoints(map::Frame& frame, map::Keyframe* kf) {
+  const map::FeatureSet& features = *frame.features;
+  std::vector<std::pair<float, int>> by_depth;
+  for (size_t i = 0; i < features.size(); ++i)
+    if (frame.usable(i) && features.hasDepth(i) && kf->points[i] == nullptr) by_depth.emplace_back(features.depth[i], i);
+  std::sort(by_depth.begin(), by_depth.end());
+  const SE3 T_w_c = frame.T_c_w.inverse();
+  int created = 0;
+  for (auto [depth, i] : by_depth) {
+    // All close points, and at least the nearest kMinNewDepthPoints.
+    if (depth > options_.tracking.close_depth && created >= kMinNewDepthPoints) break;
+    map::MapPoint* p = map_.createPoint(T_w_c * camera_.backProject(features.uv[i], depth), kf);
+    map::addObservation(p, kf, i);
+    map::updateDescriptor(p);
+    map::updateNormalAndDepth(p);
+    frame.matches[i].point = p;
+    frame.matches[i].has_vo_point = false;
+    ++created;
+  }
+}
+
+}  // namespace desslam::tracking

@@ -1,0 +1,84 @@
+// Tracking: estimates the pose of every frame against the map, decides keyframes and creates
+// them (with their depth-backed map points). Runs on the caller's thread.
+//
+// Per frame: constant-velocity prediction with guided matching by projection of the previous
+// frame's points -> fallback: descriptor matching against the reference keyframe -> local-map
+// tracking (points of co-visible keyframes) -> pose-only optimisation -> keyframe decision.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "core/camera.hpp"
+#include "core/options.hpp"
+#include "map/frame.hpp"
+#include "map/map.hpp"
+#include "matching/matcher.hpp"
+
+namespace desslam::tracking {
+
+enum class TrackingState { kNotInitialized, kOk, kLost };
+
+// What the trajectory needs of each frame: its pose relative to its reference keyframe, so that
+// the final trajectory follows the keyframes' optimised poses.
+struct FrameRecord {
+  uint64_t frame_id = 0;
+  Timestamp timestamp = 0;
+  const map::Keyframe* reference = nullptr;  // null when the frame was not tracked
+  SE3 T_c_r;
+};
+
+struct TrackOutcome {
+  bool tracked = false;
+  map::Keyframe* new_keyframe = nullptr;  // to hand to local mapping
+  int inliers = 0;                        // map-point inliers after local-map tracking
+  bool used_motion_model = false;
+};
+
+class Tracker {
+ public:
+  Tracker(const SystemOptions& options, const PinholeCamera& camera, map::Map& map);
+
+  // frame.features and frame.status are set; writes frame.T_c_w and frame.matches.
+  // mapping_idle: local mapping has no keyframe waiting (a keyframe criterion).
+  TrackOutcome track(map::Frame& frame, bool mapping_idle);
+
+  TrackingState state() const { return state_; }
+  const std::vector<FrameRecord>& records() const { return records_; }
+  int lostFrames() const { return lost_frames_; }
+
+ private:
+  bool initialize(map::Frame& frame, TrackOutcome& outcome);
+  bool trackWithMotionModel(map::Frame& frame);
+  bool trackReferenceKeyframe(map::Frame& frame);
+  bool trackLocalMap(map::Frame& frame, int& inliers);
+  // Pose-only optimisation on the frame's matches; drops outliers. Returns map-point inliers.
+  int optimizeFramePose(map::Frame& frame);
+  void updateLocalMap(const map::Frame& frame);
+  bool needKeyframe(const map::Frame& frame, int inliers, bool mapping_idle) const;
+  map::Keyframe* createKeyframe(map::Frame& frame);
+  void createDepthPoints(map::Frame& frame, map::Keyframe* kf);  // exclusive lock held
+
+  SystemOptions options_;
+  PinholeCamera camera_;
+  map::Map& map_;
+  double bf_;
+  matching::MatcherOptions matcher_options_;
+
+  TrackingState state_ = TrackingState::kNotInitialized;
+  map::Frame last_frame_;
+  const map::Keyframe* last_reference_ = nullptr;  // last_frame_'s reference keyframe
+  SE3 last_T_c_r_;
+  std::optional<SE3> velocity_;  // T_current_last of the previous step
+  map::Keyframe* reference_keyframe_ = nullptr;
+  map::Keyframe* last_keyframe_ = nullptr;
+  uint64_t last_keyframe_frame_id_ = 0;
+  std::vector<map::Keyframe*> local_keyframes_;
+  std::vector<map::MapPoint*> local_points_;
+  std::vector<uint64_t> point_stamp_;  // per point id: frame id it was last added to the local map
+  std::vector<FrameRecord> records_;
+  int lost_frames_ = 0;
+};
+
+}  // namespace desslam::tracking

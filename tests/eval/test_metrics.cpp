@@ -1,0 +1,156 @@
+#include <cmath>
+#include <numbers>
+
+#include <gtest/gtest.h>
+
+#include "core/error.hpp"
+#include "eval/metrics.hpp"
+
+namespace desslam::eval {
+namespace {
+
+constexpr double kT0 = 1305031101.6258;  // timestamps at the magnitude of real TUM files
+constexpr double kRate = 30.0;
+
+// A camera moving on a curve and turning, sampled at 30 Hz for `seconds`.
+Trajectory curvedGroundTruth(double seconds) {
+  Trajectory gt;
+  for (int k = 0; k <= static_cast<int>(seconds * kRate); ++k) {
+    const double s = k / kRate;
+    const Vec3 p(std::cos(0.7 * s), std::sin(0.7 * s), 0.2 * s + 0.1 * std::sin(2.0 * s));
+    gt.push_back({kT0 + s, SE3(so3Exp(Vec3(0.1 * s, 0.3 * s, -0.05 * s)), p)});
+  }
+  return gt;
+}
+
+Trajectory transformed(const Trajectory& trajectory, const SE3& T) {
+  Trajectory out = trajectory;
+  for (StampedPose& pose : out) pose.T_w_c = T * pose.T_w_c;
+  return out;
+}
+
+TEST(EvalSummarize, MatchesHandComputedValues) {
+  const ErrorStats s = summarize({3.0, 1.0, 4.0, 2.0});
+  EXPECT_EQ(s.count, 4u);
+  EXPECT_DOUBLE_EQ(s.mean, 2.5);
+  EXPECT_DOUBLE_EQ(s.median, 2.5);
+  EXPECT_DOUBLE_EQ(s.rmse, std::sqrt(30.0 / 4.0));
+  EXPECT_DOUBLE_EQ(s.std, std::sqrt(1.25));  // population std, as numpy
+  EXPECT_DOUBLE_EQ(s.min, 1.0);
+  EXPECT_DOUBLE_EQ(s.max, 4.0);
+  EXPECT_DOUBLE_EQ(summarize({5.0, 1.0, 2.0}).median, 2.0);
+  EXPECT_EQ(summarize({}).count, 0u);
+}
+
+TEST(EvalAte, RigidlyMovedCopyOfGroundTruthHasZeroError) {
+  const Trajectory gt = curvedGroundTruth(4.0);
+  const SE3 T_est_gt(so3Exp(Vec3(0.4, -1.2, 2.0)), Vec3(3.0, -1.0, 0.5));
+  const AteResult ate = computeAte(gt, transformed(gt, T_est_gt), 0.02);
+  EXPECT_EQ(ate.matched, gt.size());
+  EXPECT_EQ(ate.est_poses, gt.size());
+  EXPECT_LT(ate.translation_m.rmse, 1e-9);
+  EXPECT_LT(ate.translation_m.max, 1e-9);
+  EXPECT_TRUE(ate.alignment_unique);
+  EXPECT_LT((ate.T_gt_est * T_est_gt).log().norm(), 1e-9);  // recovers the inverse transform
+}
+
+TEST(EvalAte, RadialOffsetThatAlignmentCannotRemoveGivesItsSize) {
+  // Ground truth on a circle of radius 1, estimate on a concentric circle of radius 1.05, then
+  // moved rigidly: the best rigid alignment is the identity, every error is 0.05 m.
+  Trajectory gt, est;
+  for (int k = 0; k < 90; ++k) {
+    const double a = 2.0 * std::numbers::pi * k / 90.0;
+    const Vec3 dir(std::cos(a), std::sin(a), 0.0);
+    gt.push_back({kT0 + k / kRate, SE3(Quat::Identity(), dir)});
+    est.push_back({kT0 + k / kRate + 0.005, SE3(Quat::Identity(), 1.05 * dir)});  // 5 ms clock offset
+  }
+  const AteResult ate = computeAte(gt, transformed(est, SE3(so3Exp(Vec3(0.3, 0.2, -0.9)), Vec3(1, 2, 3))), 0.02);
+  EXPECT_EQ(ate.matched, 90u);
+  EXPECT_NEAR(ate.translation_m.rmse, 0.05, 1e-9);
+  EXPECT_NEAR(ate.translation_m.mean, 0.05, 1e-9);
+  EXPECT_NEAR(ate.translation_m.std, 0.0, 1e-7);
+}
+
+TEST(EvalAte, OnlyAssociatedPosesCount) {
+  const Trajectory gt = curvedGroundTruth(3.0);
+  Trajectory est = gt;
+  est.push_back({kT0 + 100.0, SE3(Quat::Identity(), Vec3(50, 50, 50))});  // no ground truth there
+  const AteResult ate = computeAte(gt, est, 0.02);
+  EXPECT_EQ(ate.matched, gt.size());
+  EXPECT_EQ(ate.est_poses, gt.size() + 1);
+  EXPECT_LT(ate.translation_m.rmse, 1e-9);
+}
+
+TEST(EvalAte, DifferentSequencesThrowWithAHint) {
+  const Trajectory gt = curvedGroundTruth(2.0);
+  Trajectory other = gt;
+  for (StampedPose& pose : other) pose.timestamp += 1000.0;
+  try {
+    computeAte(gt, other, 0.02);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no timestamps within max_dt: are these the same sequence?"),
+              std::string::npos);
+  }
+}
+
+TEST(EvalAte, StationaryEstimateIsReportedNotRejected) {
+  const Trajectory gt = curvedGroundTruth(3.0);
+  Trajectory est = gt;
+  for (StampedPose& pose : est) pose.T_w_c = SE3();
+  const AteResult ate = computeAte(gt, est, 0.02);
+  EXPECT_FALSE(ate.alignment_unique);
+  // Every alignment puts the estimate on one point; the best is the ground-truth centroid, so the
+  // ATE is the spread of the ground truth about its centroid.
+  Vec3 centroid = Vec3::Zero();
+  for (const StampedPose& pose : gt) centroid += pose.T_w_c.translation();
+  centroid /= static_cast<double>(gt.size());
+  double sum_sq = 0;
+  for (const StampedPose& pose : gt) sum_sq += (pose.T_w_c.translation() - centroid).squaredNorm();
+  EXPECT_NEAR(ate.translation_m.rmse, std::sqrt(sum_sq / gt.size()), 1e-9);
+}
+
+TEST(EvalRpe, ConstantTranslationDriftOfOneCentimetrePerSecond) {
+  const Trajectory gt = curvedGroundTruth(5.0);
+  Trajectory est = gt;
+  const Vec3 drift_per_s(0.006, 0.0, -0.008);  // |drift| = 1 cm/s, in the world frame
+  for (StampedPose& pose : est)
+    pose.T_w_c = SE3(pose.T_w_c.quaternion(), pose.T_w_c.translation() + drift_per_s * (pose.timestamp - kT0));
+  // A rigid change of the estimate's world frame must not matter for RPE either.
+  const RpeResult rpe = computeRpe(gt, transformed(est, SE3(so3Exp(Vec3(0, 0, 1)), Vec3(1, 0, 0))), 1.0, 0.02);
+  // Windows start at every pose whose t + 1 s is still inside the 5 s trajectory: 4 s * 30 Hz + 1.
+  EXPECT_EQ(rpe.pairs, 121u);
+  EXPECT_DOUBLE_EQ(rpe.delta_s, 1.0);
+  EXPECT_NEAR(rpe.translation_m.rmse, 0.01, 1e-6);
+  EXPECT_NEAR(rpe.translation_m.min, 0.01, 1e-6);
+  EXPECT_NEAR(rpe.translation_m.max, 0.01, 1e-6);
+  EXPECT_LT(rpe.rotation_deg.max, 1e-6);
+
+  const RpeResult half = computeRpe(gt, est, 0.5, 0.02);
+  EXPECT_NEAR(half.translation_m.rmse, 0.005, 1e-6);
+}
+
+TEST(EvalRpe, ConstantRotationDriftOfTwoDegreesPerSecond) {
+  Trajectory gt, est;
+  const double rate = 2.0 * std::numbers::pi / 180.0;  // rad/s
+  for (int k = 0; k <= 90; ++k) {
+    const double s = k / kRate;
+    gt.push_back({kT0 + s, SE3(so3Exp(Vec3(0.2, 0.1, 0.3)), Vec3(1, 2, 3))});
+    est.push_back({kT0 + s, SE3(so3Exp(Vec3(0.2, 0.1, 0.3)) * so3Exp(Vec3(0, 0, rate * s)), Vec3(1, 2, 3))});
+  }
+  const RpeResult rpe = computeRpe(gt, est, 1.0, 0.02);
+  EXPECT_EQ(rpe.pairs, 61u);  // 3 s at 30 Hz: windows start at t <= 2 s
+  EXPECT_NEAR(rpe.rotation_deg.rmse, 2.0, 1e-6);
+  EXPECT_LT(rpe.translation_m.max, 1e-9);
+}
+
+TEST(EvalRpe, TrajectoryShorterThanDeltaHasNoPairs) {
+  const Trajectory gt = curvedGroundTruth(0.5);
+  const RpeResult rpe = computeRpe(gt, gt, 1.0, 0.02);
+  EXPECT_EQ(rpe.pairs, 0u);
+  EXPECT_EQ(rpe.translation_m.count, 0u);
+  EXPECT_THROW(computeRpe(gt, gt, 0.0, 0.02), InputError);
+}
+
+}  // namespace
+}  // namespace desslam::eval
