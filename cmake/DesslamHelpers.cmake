@@ -20,10 +20,15 @@ function(desslam_add_test name)
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 600)
   endif()
+  # An empty LABELS value would swallow the next property name, so add it only when given.
+  set(label_property "")
+  if(ARG_LABELS)
+    set(label_property LABELS "${ARG_LABELS}")
+  endif()
   include(GoogleTest)
   gtest_discover_tests(${name}
     WORKING_DIRECTORY ${CMAKE_SOURCE_DIR}
-    PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "${ARG_LABELS}"
+    PROPERTIES TIMEOUT ${ARG_TIMEOUT} ${label_property}
       ENVIRONMENT "DESSLAM_SHARED_DIR=${DESSLAM_SHARED_DIR};DESSLAM_SOURCE_DIR=${CMAKE_SOURCE_DIR}"
     DISCOVERY_TIMEOUT 60)
 endfunction()

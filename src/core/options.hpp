@@ -57,7 +57,7 @@ struct TrackingOptions {
   int min_inliers = 15;            // fewer pose inliers => tracking lost
   int max_frames_between_keyframes = 30;   // at most one second without a keyframe (at 30 Hz)
   int min_frames_between_keyframes = 0;
-  double keyframe_tracked_ratio = 0.9;     // new keyframe when tracked/ref-keyframe points < this
+  double keyframe_tracked_ratio = 0.75;    // new keyframe when tracked/ref-keyframe points < this
   // Pose-change criterion (relative pose between the frame and its reference keyframe).
   double keyframe_translation = 0.10;      // metres
   double keyframe_rotation_deg = 10.0;     // degrees

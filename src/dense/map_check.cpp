@@ -1,5 +1,6 @@
 #include "dense/map_check.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -9,7 +10,7 @@ namespace desslam::dense {
 
 MapCheckResult freeSpaceViolations(const std::vector<Vec3>& points_w, const std::vector<Timestamp>& source_times,
                                    const std::vector<DenseKeyframe>& keyframes, const PinholeCamera& camera,
-                                   double tolerance) {
+                                   const MapCheckOptions& options) {
   if (points_w.size() != source_times.size())
     throw InputError("freeSpaceViolations: " + std::to_string(points_w.size()) + " points but " +
                      std::to_string(source_times.size()) + " source times; pass one time per point");
@@ -39,10 +40,19 @@ MapCheckResult freeSpaceViolations(const std::vector<Vec3>& points_w, const std:
       const Vec2 uv_raw = camera.distort(camera.project(p_c));
       const long u = std::lround(uv_raw.x()), v = std::lround(uv_raw.y());
       if (u < 0 || v < 0 || u >= camera.width() || v >= camera.height()) continue;
-      const float observed = view.depth->at<float>(static_cast<int>(v), static_cast<int>(u));
-      if (!(observed > 0)) continue;
+      // Nearest reading in the window, among valid ones: the surface closest to the camera
+      // decides whether the ray could have passed the point.
+      float nearest = 0;
+      const int r = options.window_radius_px;
+      for (int vv = std::max<long>(0, v - r); vv <= std::min<long>(camera.height() - 1, v + r); ++vv) {
+        const float* row = view.depth->ptr<float>(vv);
+        for (int uu = std::max<long>(0, u - r); uu <= std::min<long>(camera.width() - 1, u + r); ++uu) {
+          if (row[uu] > 0 && (nearest == 0 || row[uu] < nearest)) nearest = row[uu];
+        }
+      }
+      if (!(nearest > 0)) continue;
       checked = true;
-      if (observed > p_c.z() + tolerance) {
+      if (nearest > p_c.z() + options.tolerance) {
         violated = true;
         break;
       }
@@ -54,14 +64,14 @@ MapCheckResult freeSpaceViolations(const std::vector<Vec3>& points_w, const std:
 }
 
 MapCheckResult freeSpaceViolations(const std::vector<WorldScan>& scans, const std::vector<DenseKeyframe>& keyframes,
-                                   const PinholeCamera& camera, double tolerance) {
+                                   const PinholeCamera& camera, const MapCheckOptions& options) {
   std::vector<Vec3> points;
   std::vector<Timestamp> times;
   for (const WorldScan& scan : scans) {
     points.insert(points.end(), scan.points_w.begin(), scan.points_w.end());
     times.insert(times.end(), scan.points_w.size(), scan.timestamp);
   }
-  return freeSpaceViolations(points, times, keyframes, camera, tolerance);
+  return freeSpaceViolations(points, times, keyframes, camera, options);
 }
 
 }  // namespace desslam::dense

@@ -95,8 +95,18 @@ cv::Mat renderMap(const open3d::geometry::PointCloud& cloud, const std::vector<S
     zs.push_back(p_view[i].z());
   }
   if (zs.empty()) return image;
-  const double x_lo = percentile(xs, 0.01), x_hi = percentile(xs, 0.99);
-  const double y_lo = percentile(ys, 0.01), y_hi = percentile(ys, 0.99);
+  double x_lo = percentile(xs, 0.01), x_hi = percentile(xs, 0.99);
+  double y_lo = percentile(ys, 0.01), y_hi = percentile(ys, 0.99);
+  if (settings.draw_camera_path) {  // keep the whole path in the picture too
+    for (const SE3& T_w_c : camera_path) {
+      const Vec3 p = R * T_w_c.translation() + t;
+      if (p.z() <= kNear) continue;
+      x_lo = std::min(x_lo, p.x() / p.z());
+      x_hi = std::max(x_hi, p.x() / p.z());
+      y_lo = std::min(y_lo, p.y() / p.z());
+      y_hi = std::max(y_hi, p.y() / p.z());
+    }
+  }
   const double f = 0.9 * std::min(settings.width / std::max(x_hi - x_lo, 1e-6), settings.height / std::max(y_hi - y_lo, 1e-6));
   const double cx = settings.width / 2.0 - f * (x_lo + x_hi) / 2.0;
   const double cy = settings.height / 2.0 - f * (y_lo + y_hi) / 2.0;

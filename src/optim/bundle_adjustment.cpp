@@ -1,8 +1,6 @@
 #include "optim/bundle_adjustment.hpp"
 
 #include <cmath>
-#include <cstdio>  // DEBUG-REMOVE
-#include <cstdlib>  // DEBUG-REMOVE
 #include <memory>
 #include <string>
 
@@ -23,21 +21,6 @@ void BundleAdjustmentOptions::validate() const {
 }
 
 namespace {
-// DEBUG-REMOVE experiment: u_r row alone as a 2-dim block.
-class UrCost final : public ceres::SizedCostFunction<2, 7, 3> {
- public:
-  explicit UrCost(ceres::CostFunction* full) : full_(full) {}
-  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
-    double r[3], jp[21], jq[9];
-    double* j[2] = {jp, jq};
-    if (!full_->Evaluate(parameters, r, jacobians ? j : nullptr)) return false;
-    residuals[0] = r[2]; residuals[1] = 0;
-    if (jacobians && jacobians[0]) { for (int c = 0; c < 7; ++c) { jacobians[0][c] = jp[14 + c]; jacobians[0][7 + c] = 0; } }
-    if (jacobians && jacobians[1]) { for (int c = 0; c < 3; ++c) { jacobians[1][c] = jq[6 + c]; jacobians[1][3 + c] = 0; } }
-    return true;
-  }
-  std::unique_ptr<ceres::CostFunction> full_;
-};
 
 // Stops the solve when the caller raises the flag. TERMINATE_SUCCESSFULLY (not ABORT) so Ceres
 // still writes back the last accepted estimate, which is better than the start.
@@ -58,25 +41,24 @@ class AbortCallback final : public ceres::IterationCallback {
   bool aborted_ = false;
 };
 
-ceres::Solver::Options baSolverOptions(const BundleAdjustmentOptions& options) {
-  ceres::Solver::Options o;
-  // Points eliminated first (Schur complement), poses in the reduced system. Sparse Cholesky
-  // when Ceres has a sparse backend (Debian's has SuiteSparse and Eigen), dense otherwise.
+// Points are eliminated first (Schur complement); the reduced system holds only the poses. For
+// local BA (tens of keyframes) it is small enough that a dense factorisation is cheapest; larger
+// ones (global BA) use sparse Cholesky when Ceres has a sparse backend (Debian's has SuiteSparse).
+void chooseLinearSolver(ceres::Solver::Options& o, int variable_poses) {
+  constexpr int kMaxPosesForDenseSchur = 40;
+  o.linear_solver_type = ceres::DENSE_SCHUR;
+  if (variable_poses <= kMaxPosesForDenseSchur) return;
   if (ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE)) {
     o.linear_solver_type = ceres::SPARSE_SCHUR;
     o.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
   } else if (ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::EIGEN_SPARSE)) {
     o.linear_solver_type = ceres::SPARSE_SCHUR;
     o.sparse_linear_algebra_library_type = ceres::EIGEN_SPARSE;
-  } else {
-    o.linear_solver_type = ceres::DENSE_SCHUR;
   }
-  if (const char* e = std::getenv("OPTIM_SOLVER")) {  // DEBUG-REMOVE
-    std::string v = e;
-    if (v == "dense") o.linear_solver_type = ceres::DENSE_SCHUR;
-    if (v == "iter") { o.linear_solver_type = ceres::ITERATIVE_SCHUR; o.preconditioner_type = ceres::SCHUR_JACOBI; }
-    if (v == "eigen") o.sparse_linear_algebra_library_type = ceres::EIGEN_SPARSE;
-  }
+}
+
+ceres::Solver::Options baSolverOptions(const BundleAdjustmentOptions& options) {
+  ceres::Solver::Options o;
   o.max_num_iterations = options.iterations;
   o.num_threads = options.threads;
   o.logging_type = ceres::SILENT;
@@ -150,9 +132,11 @@ bool bundleAdjust(const PinholeCamera& camera, std::vector<BaKeyframe>& keyframe
     problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    problem_options.disable_all_safety_checks = true;  // blocks are added once each, by construction
     ceres::Problem problem(problem_options);
     auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
     std::vector<char> pose_added(keyframes.size(), 0), point_added(points.size(), 0);
+    int variable_poses = 0;
     for (std::size_t i = 0; i < observations.size(); ++i) {
       const BaObservation& o = observations[i];
       if (o.outlier) continue;
@@ -163,6 +147,7 @@ bool bundleAdjust(const PinholeCamera& camera, std::vector<BaKeyframe>& keyframe
         if (keyframes[o.keyframe].fixed) problem.SetParameterBlockConstant(pose);
         ordering->AddElementToGroup(pose, 1);
         pose_added[o.keyframe] = 1;
+        if (!keyframes[o.keyframe].fixed) ++variable_poses;
       }
       if (!point_added[o.point]) {
         problem.AddParameterBlock(point, 3);
@@ -171,21 +156,13 @@ bool bundleAdjust(const PinholeCamera& camera, std::vector<BaKeyframe>& keyframe
       }
       ceres::LossFunction* loss = nullptr;
       if (robust) loss = o.obs.hasDepth() ? &huber_rgbd : &huber_mono;
-      if (std::getenv("OPTIM_SPLIT") && o.obs.hasDepth()) {
-        static std::vector<std::unique_ptr<ceres::CostFunction>> keep;
-        Observation mono = o.obs; mono.depth = -1;
-        keep.emplace_back(detail::makePosePointCost(K, mono));
-        problem.AddResidualBlock(keep.back().get(), loss, pose, point);
-        keep.emplace_back(new UrCost(detail::makePosePointCost(K, o.obs)));
-        problem.AddResidualBlock(keep.back().get(), loss, pose, point);
-      } else
       problem.AddResidualBlock(costs[i].get(), loss, pose, point);
     }
     if (problem.NumResidualBlocks() == 0) return;
     solver_options.linear_solver_ordering = ordering;
+    chooseLinearSolver(solver_options, variable_poses);
     ceres::Solver::Summary summary;
     ceres::Solve(solver_options, &problem, &summary);
-    if (std::getenv("OPTIM_DEBUG")) std::fprintf(stderr, "%s\n", summary.FullReport().c_str());  // DEBUG-REMOVE
   };
 
   runPass(/*robust=*/true);

@@ -17,12 +17,12 @@ struct BaKeyframe {
 };
 
 struct BaPoint {
-  Vec3 p_w;
+  Vec3 p_w = Vec3::Zero();
 };
 
 struct BaObservation {
-  int keyframe;  // index into the keyframes vector
-  int point;     // index into the points vector
+  int keyframe = -1;  // index into the keyframes vector
+  int point = -1;     // index into the points vector
   Observation obs;
   bool outlier = false;  // output (input value is ignored)
 };

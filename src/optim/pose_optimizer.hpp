@@ -11,7 +11,7 @@ namespace desslam::optim {
 
 struct PoseObservation {
   Observation obs;
-  Vec3 point_w;
+  Vec3 point_w = Vec3::Zero();
   bool outlier = false;  // output: set by optimizePose (input value is ignored)
 };
 

@@ -1,7 +1,7 @@
 #include "optim/reprojection_cost.hpp"
 
+#include <algorithm>
 #include <cmath>
-#include <cstdlib>
 
 namespace desslam::optim::detail {
 
@@ -22,7 +22,7 @@ Eigen::Matrix<double, kDim, 1> measurement(const StereoIntrinsics& K, const Obse
   Eigen::Matrix<double, kDim, 1> m;
   m(0) = obs.uv.x();
   m(1) = obs.uv.y();
-  if constexpr (kDim == 3) m(2) = obs.hasDepth() ? obs.uv.x() - K.bf / obs.depth : std::numeric_limits<double>::quiet_NaN();
+  if constexpr (kDim == 3) m(2) = obs.uv.x() - K.bf / obs.depth;
   return m;
 }
 
@@ -38,7 +38,7 @@ bool whitenedResidual(const StereoIntrinsics& K, const Eigen::Matrix<double, kDi
   const double v = K.fy * p_c.y() * inv_z + K.cy;
   residuals[0] = sqrt_info * (measured(0) - u);
   residuals[1] = sqrt_info * (measured(1) - v);
-  if constexpr (kDim == 3) residuals[2] = std::isnan(measured(2)) ? 0.0 : sqrt_info * (measured(2) - (u - K.bf * inv_z));
+  if constexpr (kDim == 3) residuals[2] = sqrt_info * (measured(2) - (u - K.bf * inv_z));
   if (d_r_d_pc != nullptr) {
     const double inv_z2 = inv_z * inv_z;
     auto& J = *d_r_d_pc;
@@ -53,7 +53,6 @@ bool whitenedResidual(const StereoIntrinsics& K, const Eigen::Matrix<double, kDi
       J(2, 0) = J(0, 0);
       J(2, 1) = 0.0;
       J(2, 2) = J(0, 2) + s * K.bf * inv_z2;
-      if (std::isnan(measured(2))) J.row(2).setZero();
     }
   }
   return true;
@@ -178,7 +177,7 @@ ceres::CostFunction* makePoseOnlyCost(const StereoIntrinsics& K, const Observati
 }
 
 ceres::CostFunction* makePosePointCost(const StereoIntrinsics& K, const Observation& obs) {
-  if (obs.hasDepth() || std::getenv("OPTIM_PAD")) return new PosePointCost<3>(K, obs);
+  if (obs.hasDepth()) return new PosePointCost<3>(K, obs);
   return new PosePointCost<2>(K, obs);
 }
 

@@ -208,7 +208,8 @@ TEST(DenseMap, StatisticalOutlierRemovalDropsIsolatedPoints) {
   DenseMap unfiltered(options, camera);
   unfiltered.addKeyframe(kf);
   size_t specks = 0;
-  for (const Eigen::Vector3d& p : unfiltered.fuse()->points_) specks += p.z() < 1.5 ? 1 : 0;
+  const auto unfiltered_cloud = unfiltered.fuse();  // a temporary shared_ptr would die before the loop
+  for (const Eigen::Vector3d& p : unfiltered_cloud->points_) specks += p.z() < 1.5 ? 1 : 0;
   EXPECT_GT(specks, 0u);
 }
 

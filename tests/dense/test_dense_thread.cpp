@@ -58,7 +58,8 @@ TEST(DenseMappingThread, PushFromOneThreadFuseAndUpdateFromAnother) {
   EXPECT_FALSE(snapshot.contains(6));
   EXPECT_DOUBLE_EQ(snapshot.poses().at(5).translation().z(), 1.0);
   size_t lifted = 0;
-  for (const Eigen::Vector3d& p : thread.fuse()->points_) lifted += std::abs(p.z() - 3.0) < 1e-3 ? 1 : 0;
+  const auto final_cloud = thread.fuse();  // a temporary shared_ptr would die before the loop
+  for (const Eigen::Vector3d& p : final_cloud->points_) lifted += std::abs(p.z() - 3.0) < 1e-3 ? 1 : 0;
   EXPECT_GT(lifted, 100u);
 
   thread.stop();
