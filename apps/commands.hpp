@@ -10,5 +10,6 @@ namespace desslam::app {
 // (main prints the message and exits with status 1).
 void registerRunCommand(CLI::App& app);   // cmd_run.cpp
 void registerEvalCommand(CLI::App& app);  // cmd_eval.cpp
+void registerVocabCommand(CLI::App& app);  // cmd_vocab.cpp
 
 }  // namespace desslam::app

@@ -12,6 +12,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "desslam 0.1.0");
   desslam::app::registerRunCommand(app);
   desslam::app::registerEvalCommand(app);
+  desslam::app::registerVocabCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

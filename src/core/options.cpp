@@ -68,6 +68,12 @@ void DynamicOptions::validate() const {
   requireInRange(s, "stage1_threshold", stage1_threshold, 0.0, 10.0);
   requireInRange(s, "stage2_threshold", stage2_threshold, 0.0, 10.0);
   requireInRange(s, "mask_dilation_px", mask_dilation_px, 0, 100);
+  requireInRange(s, "stage1_search_radius_px", stage1_search_radius_px, 1.0, 200.0);
+  requireInRange(s, "stage1_max_descriptor_distance", stage1_max_descriptor_distance, 0, 256);
+  requireInRange(s, "stage1_match_ratio", stage1_match_ratio, 0.1, 1.0);
+  requireThat(stage1_unmatched_policy == "keep" || stage1_unmatched_policy == "drop", s, "stage1_unmatched_policy",
+              "'" + stage1_unmatched_policy + "' is not one of keep, drop");
+  requireInRange(s, "stage2_keyframes", stage2_keyframes, 1, 50);
 }
 
 void SemanticOptions::validate() const {

@@ -98,11 +98,25 @@ struct DynamicOptions {
   double stage1_threshold = 0.12;   // |1 - d_proj/z_k| above this => dynamic (tracking)
   double stage2_threshold = 0.08;   // |z_r - d_r| / z_r above this => residual dynamic (keyframes)
   int mask_dilation_px = 5;         // the semantic mask is dilated by this radius
+  // Stage 1 correspondence: a masked feature of frame k is matched to frame k-1's features by
+  // descriptor within this window (pixels at level 0, scaled by the keypoint's level) around
+  // where frame k-1 saw it if it were static; moving objects land a few pixels off.
+  double stage1_search_radius_px = 20.0;
+  int stage1_max_descriptor_distance = 100;  // Hamming distance accepted for a match
+  double stage1_match_ratio = 0.9;           // best / second-best distance must be below this
+  // Masked features without depth or without a depth-backed match in frame k-1: "keep" trusts
+  // them, "drop" treats them as dynamic. On a person moving towards the camera most features find
+  // no trustworthy match (synthetic test: ~2/3), so "keep" leaves many of them in.
+  std::string stage1_unmatched_policy = "keep";
+  int stage2_keyframes = 5;  // at most this many co-visible keyframes vote per map point
 
   static constexpr const char* kSection = "dynamic";
   template <class V> void fields(V& v) {
     v("mode", mode); v("stage1_threshold", stage1_threshold); v("stage2_threshold", stage2_threshold);
-    v("mask_dilation_px", mask_dilation_px);
+    v("mask_dilation_px", mask_dilation_px); v("stage1_search_radius_px", stage1_search_radius_px);
+    v("stage1_max_descriptor_distance", stage1_max_descriptor_distance);
+    v("stage1_match_ratio", stage1_match_ratio); v("stage1_unmatched_policy", stage1_unmatched_policy);
+    v("stage2_keyframes", stage2_keyframes);
   }
   void validate() const;
 };

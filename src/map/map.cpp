@@ -270,8 +270,9 @@ int trackedPointCount(const Keyframe* kf, int min_observations) {
 
 int predictLevel(const MapPoint* point, double distance, const feature::ScalePyramid& pyramid) {
   const double ratio = point->max_distance / std::max(distance, 1e-9);
-  int level = static_cast<int>(std::ceil(std::log(ratio) / std::log(pyramid.scale[1])));
-  return std::clamp(level, 0, static_cast<int>(pyramid.scale.size()) - 1);
+  if (pyramid.levels() <= 1) return 0;
+  const int level = static_cast<int>(std::ceil(std::log(ratio) / pyramid.log_scale_factor));
+  return std::clamp(level, 0, pyramid.levels() - 1);
 }
 
 SE3 keyframeTcw(const Keyframe* kf) {

@@ -1,6 +1,7 @@
 #include "mapping/local_mapper.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <map>
 #include <mutex>
@@ -53,12 +54,27 @@ LocalMapper::LocalMapper(const SystemOptions& options, const PinholeCamera& came
 }
 
 void LocalMapper::process(map::Keyframe* kf, const std::atomic<bool>* abort_ba) {
+  using Clock = std::chrono::steady_clock;
+  const auto start = Clock::now();
+  auto step = start;
+  auto lap = [&step](std::vector<double>& out) {
+    const auto now = Clock::now();
+    out.push_back(std::chrono::duration<double, std::milli>(now - step).count());
+    step = now;
+  };
   insertKeyframe(kf);
+  lap(stats_.insert_ms);
   cullRecentPoints(kf);
+  lap(stats_.cull_points_ms);
   triangulateNewPoints(kf);
+  lap(stats_.triangulate_ms);
   fuseWithNeighbours(kf);
+  lap(stats_.fuse_ms);
   if (options_.mapping.local_ba) localBundleAdjustment(kf, abort_ba);
+  lap(stats_.ba_ms);
   cullRedundantKeyframes(kf);
+  lap(stats_.cull_keyframes_ms);
+  stats_.total_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - start).count());
   ++stats_.keyframes_processed;
 }
 

@@ -29,6 +29,8 @@ struct LocalMappingStats {
   size_t keyframes_culled = 0;
   size_t ba_runs = 0;
   size_t ba_aborted = 0;
+  // Milliseconds per processed keyframe, per step.
+  std::vector<double> insert_ms, cull_points_ms, triangulate_ms, fuse_ms, ba_ms, cull_keyframes_ms, total_ms;
 };
 
 class LocalMapper {

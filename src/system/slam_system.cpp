@@ -118,7 +118,15 @@ nlohmann::json SlamSystem::statistics() const {
                         {"recent_points_culled", ms.points_culled},
                         {"keyframes_culled", ms.keyframes_culled},
                         {"ba_runs", ms.ba_runs},
-                        {"ba_aborted", ms.ba_aborted}};
+                        {"ba_aborted", ms.ba_aborted},
+                        {"timings_ms",
+                         {{"insert", summarizeMilliseconds(ms.insert_ms)},
+                          {"cull_points", summarizeMilliseconds(ms.cull_points_ms)},
+                          {"triangulate", summarizeMilliseconds(ms.triangulate_ms)},
+                          {"fuse", summarizeMilliseconds(ms.fuse_ms)},
+                          {"local_ba", summarizeMilliseconds(ms.ba_ms)},
+                          {"cull_keyframes", summarizeMilliseconds(ms.cull_keyframes_ms)},
+                          {"per_keyframe", summarizeMilliseconds(ms.total_ms)}}}};
   // "tracking" = extraction + pose estimation: the per-frame cost on the tracking thread.
   std::vector<double> tracking_total(timings_.size());
   for (size_t i = 0; i < timings_.size(); ++i) tracking_total[i] = timings_[i].extraction_ms + timings_[i].tracking_ms;

@@ -1,0 +1,133 @@
+// Options: defaults validate, and every rejection names the offending "section.key".
+#include "core/options.hpp"
+
+#include <algorithm>
+#include <functional>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "core/error.hpp"
+
+namespace desslam {
+namespace {
+
+SystemOptions validDefaults() {
+  SystemOptions o;
+  o.camera.fx = 525;
+  o.camera.fy = 525;
+  o.camera.cx = 319.5;
+  o.camera.cy = 239.5;
+  return o;
+}
+
+// The ConfigError message of validate() after `change`, or "" when nothing was thrown.
+std::string errorAfter(const std::function<void(SystemOptions&)>& change) {
+  SystemOptions o = validDefaults();
+  change(o);
+  try {
+    o.validate();
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return {};
+}
+
+#define EXPECT_REJECTED_NAMING(change, key)                                                  \
+  do {                                                                                       \
+    const std::string message = errorAfter(change);                                          \
+    EXPECT_FALSE(message.empty()) << "validate() accepted a bad " << (key);                 \
+    EXPECT_NE(message.find(key), std::string::npos) << "'" << message << "' lacks " << (key); \
+  } while (0)
+
+TEST(Options, DefaultsWithIntrinsicsValidate) { EXPECT_NO_THROW(validDefaults().validate()); }
+
+TEST(Options, CameraWithoutIntrinsicsIsRejected) {
+  SystemOptions o;  // fx = fy = 0
+  EXPECT_THROW(o.validate(), ConfigError);
+}
+
+TEST(Options, OrbNumLevelsZeroNamesTheKey) {
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.orb.num_levels = 0; }, "orb.num_levels");
+}
+
+TEST(Options, MessageShowsTheBadValue) {
+  const std::string message = errorAfter([](SystemOptions& o) { o.orb.scale_factor = 3.5; });
+  EXPECT_NE(message.find("orb.scale_factor"), std::string::npos) << message;
+  EXPECT_NE(message.find("3.5"), std::string::npos) << message;
+}
+
+TEST(Options, EachSectionNamesItsKey) {
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.camera.fx = -1; }, "camera.fx");
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.camera.width = 0; }, "camera.width");
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.camera.cx = 5000; }, "camera.cx");
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.camera.depth_factor = 0; }, "camera.depth_factor");
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.camera.fps = 0; }, "camera.fps");
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.orb.num_features = 0; }, "orb.num_features");
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.orb.min_fast_threshold = 30; }, "orb.min_fast_threshold");
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.tracking.max_depth = 0.05; }, "tracking.max_depth");
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.tracking.min_inliers = 0; }, "tracking.min_inliers");
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.tracking.keyframe_tracked_ratio = 1.5; },
+                         "tracking.keyframe_tracked_ratio");
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.mapping.local_ba_iterations = 0; },
+                         "mapping.local_ba_iterations");
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.dynamic.mode = "everything"; }, "dynamic.mode");
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.dynamic.stage1_threshold = -0.1; }, "dynamic.stage1_threshold");
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.semantic.segmenter = "yolo"; }, "semantic.segmenter");
+  EXPECT_REJECTED_NAMING(
+      [](SystemOptions& o) {
+        o.semantic.segmenter = "mask_dir";
+        o.semantic.mask_dir.clear();
+      },
+      "semantic.mask_dir");
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.semantic.dynamic_classes.clear(); }, "semantic.dynamic_classes");
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.dense.voxel_size = 0; }, "dense.voxel_size");
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.dense.pixel_stride = 0; }, "dense.pixel_stride");
+}
+
+TEST(Options, DynamicModesAreAccepted) {
+  for (const char* mode : {"off", "semantic", "geometric", "full"}) {
+    EXPECT_EQ(errorAfter([&](SystemOptions& o) { o.dynamic.mode = mode; }), "") << mode;
+  }
+}
+
+TEST(Options, MethodThresholdsAreTheDefaults) {
+  // DeS-SLAM's stage thresholds (12 % and 8 %) and the TUM/Bonn depth factor.
+  const SystemOptions o;
+  EXPECT_DOUBLE_EQ(o.dynamic.stage1_threshold, 0.12);
+  EXPECT_DOUBLE_EQ(o.dynamic.stage2_threshold, 0.08);
+  EXPECT_DOUBLE_EQ(o.camera.depth_factor, 5000.0);
+}
+
+// fields() lists each key once: the loader, report and unknown-key detection rely on it.
+struct KeyCollector {
+  std::vector<std::string> keys;
+  template <class T> void operator()(const char* key, T&) { keys.emplace_back(key); }
+};
+
+TEST(Options, FieldListsHaveUniqueKeysAndSections) {
+  SystemOptions o = validDefaults();
+  std::vector<std::string> sections;
+  o.sections([&](auto& section) {
+    sections.emplace_back(std::decay_t<decltype(section)>::kSection);
+    KeyCollector collector;
+    section.fields(collector);
+    EXPECT_FALSE(collector.keys.empty()) << sections.back();
+    std::vector<std::string> sorted = collector.keys;
+    std::sort(sorted.begin(), sorted.end());
+    EXPECT_EQ(std::adjacent_find(sorted.begin(), sorted.end()), sorted.end())
+        << "duplicate key in section " << sections.back();
+  });
+  const std::vector<std::string> expected{"camera", "orb", "tracking", "mapping", "dynamic", "semantic", "dense"};
+  // Sections may be added later; these must stay (config files use them).
+  for (const std::string& name : expected)
+    EXPECT_NE(std::find(sections.begin(), sections.end(), name), sections.end()) << name;
+  std::vector<std::string> sorted = sections;
+  std::sort(sorted.begin(), sorted.end());
+  EXPECT_EQ(std::adjacent_find(sorted.begin(), sorted.end()), sorted.end()) << "duplicate section";
+}
+
+}  // namespace
+}  // namespace desslam

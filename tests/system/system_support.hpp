@@ -1,0 +1,107 @@
+// Helpers for the end-to-end tests: synthetic TUM-layout sequences with exact ground truth,
+// a config file for the synthetic camera, and running the desslam binary with its output
+// captured.
+#pragma once
+
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "core/options.hpp"
+#include "sim/camera_path.hpp"
+#include "sim/synthetic_scene.hpp"
+
+namespace desslam::test {
+
+// Writes `frames` frames of the default static textured room along sim::sweepPath at the
+// synthetic camera's rate (rgb/, depth/, rgb.txt, depth.txt, groundtruth.txt).
+inline void writeSyntheticSequence(const std::filesystem::path& dir, int frames) {
+  const CameraOptions camera = sim::syntheticCamera();
+  const sim::SyntheticScene scene(sim::SceneOptions{}, camera);
+  sim::writeSequence(dir, scene, sim::sweepPath(frames, camera.fps), camera, /*write_masks=*/false);
+}
+
+// Options for the static synthetic scenes: the synthetic camera, no segmentation network (nothing
+// moves, and the tests must not depend on the model file), no dense map (not checked here).
+inline SystemOptions syntheticSystemOptions() {
+  SystemOptions options;
+  options.camera = sim::syntheticCamera();
+  options.semantic.segmenter = "none";
+  options.dynamic.mode = "geometric";
+  options.dense.enabled = false;
+  return options;
+}
+
+// The same settings as a YAML config for the binary; `extra` is appended verbatim (more sections).
+inline std::string syntheticConfigYaml(const std::string& extra = "") {
+  const CameraOptions c = sim::syntheticCamera();
+  std::ostringstream yaml;
+  yaml.precision(17);
+  yaml << "camera:\n"
+       << "  fx: " << c.fx << "\n  fy: " << c.fy << "\n  cx: " << c.cx << "\n  cy: " << c.cy << "\n"
+       << "  width: " << c.width << "\n  height: " << c.height << "\n"
+       << "  distortion: [0, 0, 0, 0, 0]\n"
+       << "  depth_factor: " << c.depth_factor << "\n  fps: " << c.fps << "\n"
+       << "semantic:\n  segmenter: none\n"
+       << "dynamic:\n  mode: geometric\n"
+       << "dense:\n  enabled: false\n"
+       << extra;
+  return yaml.str();
+}
+
+inline std::string readText(const std::filesystem::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// Single-quoted for /bin/sh (paths here never contain a single quote, but be safe).
+inline std::string shellQuote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) {
+    if (c == '\'')
+      out += "'\\''";
+    else
+      out += c;
+  }
+  return out + "'";
+}
+
+struct CommandResult {
+  int exit_code = -1;     // the process's exit status; 128 + signal when it was killed
+  bool signaled = false;  // crashed (segfault, abort) rather than exiting
+  std::string out, err;
+};
+
+// Runs `command` with /bin/sh, stdout and stderr captured through files in `scratch`.
+inline CommandResult runCommand(const std::string& command, const std::filesystem::path& scratch) {
+  std::filesystem::create_directories(scratch);
+  const auto out_file = scratch / "stdout.txt", err_file = scratch / "stderr.txt";
+  const std::string full =
+      command + " >" + shellQuote(out_file.string()) + " 2>" + shellQuote(err_file.string()) + " </dev/null";
+  const int status = std::system(full.c_str());
+  CommandResult r;
+  if (status != -1 && WIFEXITED(status)) {
+    r.exit_code = WEXITSTATUS(status);
+    // sh reports a child killed by a signal as 128 + signal.
+    r.signaled = r.exit_code > 128 && r.exit_code < 160;
+  } else if (status != -1 && WIFSIGNALED(status)) {
+    r.exit_code = 128 + WTERMSIG(status);
+    r.signaled = true;
+  }
+  r.out = readText(out_file);
+  r.err = readText(err_file);
+  return r;
+}
+
+#ifdef DESSLAM_BINARY
+inline std::string desslamBinary() { return DESSLAM_BINARY; }
+#endif
+
+}  // namespace desslam::test
