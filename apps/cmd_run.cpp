@@ -11,7 +11,10 @@
 #include <iostream>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
@@ -35,6 +38,10 @@ struct RunArgs {
   std::vector<std::string> overrides;
   size_t max_frames = 0;
   bool quiet = false;
+  bool realtime = false;
+  std::string dynamic_mode;  // empty: from the config
+  std::string debug_images;
+  std::string map_color = "rgb";
 };
 
 constexpr size_t kCheckpointEvery = 200;  // frames between partial trajectory saves
@@ -55,7 +62,10 @@ void writeJson(const std::filesystem::path& path, const nlohmann::json& j) {
 void runSequence(const RunArgs& args) {
   SystemOptions options = io::loadConfig(args.config);
   for (const std::string& assignment : args.overrides) io::applyOverride(options, assignment);
+  if (!args.dynamic_mode.empty()) options.dynamic.mode = args.dynamic_mode;
   options.validate();
+  // OpenCV's thread pool is process-wide; it mostly serves the network (DeepLab).
+  cv::setNumThreads(options.semantic.threads);
 
   const io::TumSequence sequence = io::TumSequence::open(args.sequence);
   const std::filesystem::path out_dir(args.out);
@@ -64,7 +74,12 @@ void runSequence(const RunArgs& args) {
 
   system::RunSettings settings;
   settings.deterministic = args.deterministic;
+  settings.realtime = args.realtime;
+  settings.debug_images_dir = args.debug_images;
+  if (args.deterministic && args.realtime)
+    throw ConfigError("--deterministic and --realtime exclude each other: real-time mode never waits for a stage");
   system::SlamSystem slam(options, settings);
+  std::vector<double> lag_ms;  // real-time: how late each frame started relative to its sensor time
 
   g_interrupted = false;
   auto previous_handler = std::signal(SIGINT, onInterrupt);
@@ -85,6 +100,13 @@ void runSequence(const RunArgs& args) {
       slam.finish();
       io::writeTumTrajectory(out_dir / "CameraTrajectory.txt", slam.cameraTrajectory());
       throw;
+    }
+    if (args.realtime) {
+      // Frames arrive at the sensor's rate: wait for this frame's time, never skip one.
+      const double due_s = sequence.record(i).rgb_timestamp - sequence.record(0).rgb_timestamp;
+      const double now_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      if (due_s > now_s) std::this_thread::sleep_for(std::chrono::duration<double>(due_s - now_s));
+      lag_ms.push_back(std::max(0.0, now_s - due_s) * 1000.0);
     }
     slam.processFrame(image.timestamp, image.bgr, image.depth, sequence.record(i).rgb_path.filename().string());
 
@@ -116,6 +138,8 @@ void runSequence(const RunArgs& args) {
   report["wall_seconds"] = wall_s;
   report["frames_per_second"] = slam.framesProcessed() / std::max(wall_s, 1e-9);
   report["input_warnings"] = sequence.warnings();
+  if (args.realtime) report["realtime_lag_ms"] = system::summarizeMilliseconds(lag_ms);
+  report["dense"] = slam.exportDenseMap(out_dir, args.map_color == "semantic");
   if (!stop_reason.empty()) report["stopped"] = stop_reason;
   if (sequence.groundTruth() && trajectory.size() >= 3) {
     try {
@@ -158,6 +182,16 @@ void registerRunCommand(CLI::App& app) {
   cmd->add_option("--set", args->overrides, "Override a config key, e.g. --set tracking.max_depth=3.5 (repeatable)");
   cmd->add_option("--max-frames", args->max_frames, "Process only the first N frames (0 = all)");
   cmd->add_flag("--quiet,-q", args->quiet, "No progress line or summary");
+  cmd->add_flag("--realtime", args->realtime,
+                "Feed frames at the sensor's rate; tracking never waits for segmentation");
+  cmd->add_option("--dynamic", args->dynamic_mode,
+                  "Dynamic-feature removal: off | semantic | geometric | full (default: config, full)")
+      ->check(CLI::IsMember({"off", "semantic", "geometric", "full"}));
+  cmd->add_option("--debug-images", args->debug_images,
+                  "Write each frame with its mask and features coloured static/stage-1/stage-2 here");
+  cmd->add_option("--map-color", args->map_color, "Dense map colours: rgb | semantic")
+      ->check(CLI::IsMember({"rgb", "semantic"}))
+      ->capture_default_str();
   cmd->callback([args] { runSequence(*args); });
 }
 

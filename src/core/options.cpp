@@ -74,6 +74,7 @@ void DynamicOptions::validate() const {
   requireThat(stage1_unmatched_policy == "keep" || stage1_unmatched_policy == "drop", s, "stage1_unmatched_policy",
               "'" + stage1_unmatched_policy + "' is not one of keep, drop");
   requireInRange(s, "stage2_keyframes", stage2_keyframes, 1, 50);
+  requireInRange(s, "stage1_min_interval_s", stage1_min_interval_s, 0.0, 10.0);
 }
 
 void SemanticOptions::validate() const {

@@ -107,8 +107,13 @@ struct DynamicOptions {
   // Masked features without depth or without a depth-backed match in frame k-1: "keep" trusts
   // them, "drop" treats them as dynamic. On a person moving towards the camera most features find
   // no trustworthy match (synthetic test: ~2/3), so "keep" leaves many of them in.
-  std::string stage1_unmatched_policy = "keep";
+  std::string stage1_unmatched_policy = "drop";
   int stage2_keyframes = 5;  // at most this many co-visible keyframes vote per map point
+  // Stage 1 compares frame k with the newest tracked frame at least this old (0: always k-1).
+  // At 30 Hz a walking person changes depth by ~2 % between consecutive frames, far below the
+  // 12 % threshold; a few tenths of a second make the motion visible while a person sitting
+  // still stays consistent over any interval.
+  double stage1_min_interval_s = 0.2;
 
   static constexpr const char* kSection = "dynamic";
   template <class V> void fields(V& v) {
@@ -116,7 +121,7 @@ struct DynamicOptions {
     v("mask_dilation_px", mask_dilation_px); v("stage1_search_radius_px", stage1_search_radius_px);
     v("stage1_max_descriptor_distance", stage1_max_descriptor_distance);
     v("stage1_match_ratio", stage1_match_ratio); v("stage1_unmatched_policy", stage1_unmatched_policy);
-    v("stage2_keyframes", stage2_keyframes);
+    v("stage2_keyframes", stage2_keyframes); v("stage1_min_interval_s", stage1_min_interval_s);
   }
   void validate() const;
 };

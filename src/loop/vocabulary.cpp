@@ -246,7 +246,7 @@ Vocabulary Vocabulary::train(const std::vector<cv::Mat>& descriptor_sets, const 
     const std::vector<uint32_t> members = std::move(pending[i]);
     pending[i] = {};
     if (levels[i] != logged_level) {
-      spdlog::info("vocabulary: splitting level {} of {} ({} nodes so far)", levels[i], options.depth, parents.size());
+      spdlog::debug("vocabulary: splitting level {} of {} ({} nodes so far)", levels[i], options.depth, parents.size());
       logged_level = levels[i];
     }
     if (levels[i] >= options.depth || members.size() <= 1) continue;  // a leaf

@@ -60,6 +60,8 @@ class Vocabulary {
   // `descriptors` is empty). features: for each descriptor row i, the node on its path at
   // `levels_up` levels above the deepest level (depth - levels_up from the root, clamped to
   // [0, depth]; a leaf that ends higher stands for itself) -> rows. levels_up = 0 groups by word.
+  // For matching between keyframes, group a few levels below the root, e.g. levels_up =
+  // depth() - 2 (up to k^2 = 100 groups for k = 10); smaller groups miss more true matches.
   // descriptors: N x 32 CV_8U (throws InputError otherwise, or when the vocabulary is empty).
   void transform(const cv::Mat& descriptors, BowVector& bow, FeatureVector& features, int levels_up) const;
   void transform(const cv::Mat& descriptors, BowVector& bow) const;

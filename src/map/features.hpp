@@ -37,6 +37,7 @@ enum class FeatureStatus : uint8_t {
   kDynamicStage1 = 1,  // inside the semantic mask and depth-inconsistent with the previous frame
   kDynamicStage2 = 2,  // depth-inconsistent with co-visible keyframes' optimised points
   kDynamicMask = 3,    // inside the semantic mask (semantic-only ablation)
+  kPendingStage1 = 4,  // inside the semantic mask, not yet checked: kept out of the first pose estimate
 };
 
 struct FeatureSet {

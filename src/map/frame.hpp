@@ -28,6 +28,8 @@ struct Frame {
   Timestamp timestamp = 0;
   std::string image_name;
   std::shared_ptr<const FeatureSet> features;
+  cv::Mat depth;                      // CV_32F metres (shared with the caller, not copied)
+  cv::Mat dynamic_mask;               // CV_8U dilated semantic mask (255 = possibly moving); may be empty
   std::vector<FeatureStatus> status;  // per feature
   std::vector<FeatureMatch> matches;  // per feature
   SE3 T_c_w;

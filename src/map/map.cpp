@@ -9,10 +9,10 @@ namespace desslam::map {
 
 Keyframe* Map::createKeyframe(uint64_t frame_id, Timestamp timestamp, std::string image_name,
                               std::shared_ptr<const FeatureSet> features, std::vector<FeatureStatus> status,
-                              const SE3& T_c_w) {
+                              cv::Mat half_depth, const SE3& T_c_w) {
   const uint64_t id = next_keyframe_id_++;
   auto kf = std::make_unique<Keyframe>(id, frame_id, timestamp, std::move(image_name), std::move(features),
-                                       std::move(status), T_c_w);
+                                       std::move(status), std::move(half_depth), T_c_w);
   Keyframe* raw = kf.get();
   keyframes_.emplace(id, std::move(kf));
   ++good_keyframes_;

@@ -20,7 +20,7 @@ class Map {
   // -- exclusive lock --
   Keyframe* createKeyframe(uint64_t frame_id, Timestamp timestamp, std::string image_name,
                            std::shared_ptr<const FeatureSet> features, std::vector<FeatureStatus> status,
-                           const SE3& T_c_w);
+                           cv::Mat half_depth, const SE3& T_c_w);
   MapPoint* createPoint(const Vec3& position, Keyframe* reference);
   void setKeyframeBad(Keyframe* kf);   // culls: reassigns children, removes observations
   void setPointBad(MapPoint* point);   // removes the point from every keyframe observing it

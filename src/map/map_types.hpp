@@ -51,13 +51,15 @@ class MapPoint {
 class Keyframe {
  public:
   Keyframe(uint64_t id, uint64_t frame_id, Timestamp timestamp, std::string image_name,
-           std::shared_ptr<const FeatureSet> features, std::vector<FeatureStatus> status, const SE3& T_c_w)
+           std::shared_ptr<const FeatureSet> features, std::vector<FeatureStatus> status, cv::Mat half_depth,
+           const SE3& T_c_w)
       : id(id),
         frame_id(frame_id),
         timestamp(timestamp),
         image_name(std::move(image_name)),
         features(std::move(features)),
         status(std::move(status)),
+        half_depth(std::move(half_depth)),
         T_c_w(T_c_w),
         points(this->features->size(), nullptr) {}
 
@@ -67,6 +69,7 @@ class Keyframe {
   const std::string image_name;                     // immutable (RGB file name)
   const std::shared_ptr<const FeatureSet> features; // immutable
   const std::vector<FeatureStatus> status;          // immutable: dynamic features are never mapped
+  const cv::Mat half_depth;                         // immutable: CV_32F metres at half resolution (stage 2)
 
   // guarded
   SE3 T_c_w;

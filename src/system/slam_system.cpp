@@ -5,7 +5,18 @@
 #include <mutex>
 #include <shared_mutex>
 
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <spdlog/spdlog.h>
+
+#include <open3d/geometry/PointCloud.h>
+
+#include "dense/dense_thread.hpp"
+#include "dense/map_export.hpp"
+#include "dynamic/mask_utils.hpp"
+#include "semantic/semantic_thread.hpp"
+#include "semantic/segmenter.hpp"
+#include "system/debug_view.hpp"
 
 namespace desslam::system {
 
@@ -24,6 +35,13 @@ nlohmann::json summarizeMilliseconds(std::vector<double> values) {
   return {{"median", quantile(0.5)}, {"p95", quantile(0.95)}, {"mean", sum / values.size()}, {"count", values.size()}};
 }
 
+namespace {
+constexpr size_t kRecentFrames = 30;        // history for carrying masks forward
+constexpr int kDynamicFeatureRadius = 12;   // pixels left out of the dense map around a dynamic feature
+
+bool usesMask(const std::string& mode) { return mode == "semantic" || mode == "full"; }
+}  // namespace
+
 SlamSystem::SlamSystem(const SystemOptions& options, const RunSettings& settings)
     : options_(options),
       settings_(settings),
@@ -33,15 +51,66 @@ SlamSystem::SlamSystem(const SystemOptions& options, const RunSettings& settings
       tracker_(options, camera_, map_),
       mapper_(options, camera_, map_) {
   options_.validate();
+  if (usesMask(options_.dynamic.mode)) {
+    std::unique_ptr<semantic::Segmenter> segmenter = semantic::makeSegmenter(options_.semantic);
+    if (segmenter == nullptr)
+      throw ConfigError("dynamic.mode = " + options_.dynamic.mode +
+                        " needs masks but semantic.segmenter = none: choose deeplab or mask_dir, or dynamic.mode "
+                        "geometric/off");
+    semantic_ = std::make_unique<semantic::SemanticThread>(
+        std::move(segmenter), settings_.realtime ? semantic::SemanticMode::kRealtime : semantic::SemanticMode::kOffline);
+  }
   if (!settings_.deterministic) mapping_thread_ = std::make_unique<mapping::LocalMappingThread>(mapper_);
+  if (options_.dense.enabled)
+    dense_ = std::make_unique<dense::DenseMappingThread>(
+        options_.dense, camera_, settings_.realtime ? QueueFullPolicy::kDropOldest : QueueFullPolicy::kBlock);
+  if (!settings_.debug_images_dir.empty()) std::filesystem::create_directories(settings_.debug_images_dir);
 }
 
 SlamSystem::~SlamSystem() { finish(); }
 
+cv::Mat SlamSystem::maskFor(uint64_t frame_id, const cv::Mat& depth, FrameStats& stats) {
+  last_labels_ = cv::Mat();
+  if (!semantic_) return {};
+  const auto wait_start = std::chrono::steady_clock::now();
+  std::shared_ptr<const semantic::Segmentation> result;
+  uint64_t result_id = frame_id;
+  if (settings_.realtime)
+    result = semantic_->latest(frame_id, &result_id);
+  else
+    result = semantic_->waitFor(frame_id);
+  stats.mask_wait_ms = millisecondsSince(wait_start);
+  if (result == nullptr || result->dynamic_mask.empty()) return {};
+  stats.segmentation_ms = result->seconds * 1000.0;
+  stats.mask_age = static_cast<int>(frame_id - result_id);
+  last_labels_ = result->labels;
+  cv::Mat mask = result->dynamic_mask;
+  if (result_id != frame_id) {
+    // Carry the older mask forward: warp it with its frame's depth and the predicted motion.
+    auto source = std::find_if(recent_.begin(), recent_.end(), [&](const RecentFrame& f) { return f.id == result_id; });
+    if (source == recent_.end() || !source->tracked || recent_.empty() || !recent_.back().tracked) {
+      mask = cv::Mat();  // too old or untracked: better no mask than a misplaced one
+    } else {
+      const RecentFrame& previous = recent_.back();
+      SE3 T_k_w = previous.T_c_w;
+      if (recent_.size() >= 2 && recent_[recent_.size() - 2].tracked)
+        T_k_w = previous.T_c_w * recent_[recent_.size() - 2].T_c_w.inverse() * previous.T_c_w;
+      mask = dynamic::carryMaskForward(mask, source->depth, T_k_w * source->T_c_w.inverse(), camera_);
+    }
+    last_labels_ = cv::Mat();
+  }
+  if (mask.empty()) return {};
+  return dynamic::dilateMask(mask, options_.dynamic.mask_dilation_px);
+}
+
 void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv::Mat& depth,
                               const std::string& image_name) {
   const auto start = std::chrono::steady_clock::now();
-  FrameTiming timing;
+  FrameStats stats;
+  const uint64_t frame_id = next_frame_id_++;
+  // Segmentation of this frame runs in the semantic thread while ORB features are extracted here.
+  if (semantic_) semantic_->submit(frame_id, std::make_shared<const cv::Mat>(bgr), image_name);
+
   cv::Mat gray;
   cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
   std::vector<cv::KeyPoint> keypoints;
@@ -49,29 +118,76 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   extractor_.extract(gray, keypoints, descriptors);
   auto features = map::buildFeatureSet(std::move(keypoints), std::move(descriptors), camera_, depth, pyramid_,
                                        options_.tracking.min_depth, options_.tracking.max_depth);
-  map::Frame frame(next_frame_id_++, timestamp, image_name, std::move(features));
-  timing.extraction_ms = millisecondsSince(start);
+  map::Frame frame(frame_id, timestamp, image_name, std::move(features));
+  frame.depth = depth;
+  stats.features = static_cast<int>(frame.features->size());
+  stats.extraction_ms = millisecondsSince(start);
+
+  frame.dynamic_mask = maskFor(frame_id, depth, stats);
+  if (!frame.dynamic_mask.empty()) {
+    const std::vector<uint8_t> in_mask = dynamic::featuresInMask(*frame.features, frame.dynamic_mask);
+    const bool semantic_only = options_.dynamic.mode == "semantic";
+    for (size_t i = 0; i < in_mask.size(); ++i) {
+      if (!in_mask[i]) continue;
+      ++stats.in_mask;
+      frame.status[i] = semantic_only ? map::FeatureStatus::kDynamicMask : map::FeatureStatus::kPendingStage1;
+    }
+    if (semantic_only) stats.semantic_removed = stats.in_mask;
+  }
 
   const auto track_start = std::chrono::steady_clock::now();
   const bool mapping_idle = mapping_thread_ == nullptr || mapping_thread_->idle();
   const tracking::TrackOutcome outcome = tracker_.track(frame, mapping_idle);
-  timing.tracking_ms = millisecondsSince(track_start);
-  last_tracked_ = outcome.tracked;
+  stats.tracking_ms = millisecondsSince(track_start);
+  stats.tracked = outcome.tracked;
+  stats.stage1_checked = outcome.stage1_checked;
+  stats.stage1_removed = outcome.stage1_removed;
+  stats.stage2_removed = outcome.stage2_removed;
 
   if (outcome.new_keyframe != nullptr) {
+    stats.keyframe = true;
+    if (dense_) pushDenseKeyframe(outcome.new_keyframe, frame, bgr, last_labels_);
     if (mapping_thread_)
       mapping_thread_->push(outcome.new_keyframe);
     else
       mapper_.process(outcome.new_keyframe, nullptr);
   }
-  timing.total_ms = millisecondsSince(start);
-  timings_.push_back(timing);
+  if (!settings_.debug_images_dir.empty()) {
+    const std::filesystem::path path = settings_.debug_images_dir / image_name;
+    cv::imwrite(path.string(), drawDynamicDebugView(bgr, frame.dynamic_mask, frame));
+  }
+  recent_.push_back({frame_id, depth, frame.T_c_w, outcome.tracked});
+  if (recent_.size() > kRecentFrames) recent_.pop_front();
+  stats.total_ms = millisecondsSince(start);
+  frames_.push_back(stats);
+}
+
+void SlamSystem::pushDenseKeyframe(const map::Keyframe* kf, const map::Frame& frame, const cv::Mat& bgr,
+                                   const cv::Mat& labels) const {
+  auto dense_kf = std::make_shared<dense::DenseKeyframe>();
+  dense_kf->keyframe_id = kf->id;
+  dense_kf->timestamp = frame.timestamp;
+  dense_kf->bgr = bgr;
+  dense_kf->depth = frame.depth;
+  dense_kf->labels = labels;
+  dense_kf->T_w_c = frame.T_c_w.inverse();
+  // Left out of the dense map: the semantic mask (semantic/full) and the surroundings of every
+  // feature the depth checks found dynamic.
+  cv::Mat exclude = frame.dynamic_mask.empty() ? cv::Mat::zeros(bgr.size(), CV_8U) : frame.dynamic_mask.clone();
+  for (size_t i = 0; i < frame.status.size(); ++i) {
+    if (frame.status[i] == map::FeatureStatus::kDynamicStage1 || frame.status[i] == map::FeatureStatus::kDynamicStage2)
+      cv::circle(exclude, frame.features->keypoints[i].pt, kDynamicFeatureRadius, cv::Scalar(255), cv::FILLED);
+  }
+  dense_kf->exclude_mask = exclude;
+  dense_->push(std::move(dense_kf));
 }
 
 void SlamSystem::finish() {
   if (finished_) return;
   finished_ = true;
+  if (semantic_) semantic_->stop();
   if (mapping_thread_) mapping_thread_->stop();
+  if (dense_) dense_->waitUntilIdle();
 }
 
 Trajectory SlamSystem::cameraTrajectory() const {
@@ -93,11 +209,32 @@ Trajectory SlamSystem::keyframeTrajectory() const {
 }
 
 nlohmann::json SlamSystem::statistics() const {
-  std::vector<double> extraction, tracking, total;
-  for (const FrameTiming& t : timings_) {
-    extraction.push_back(t.extraction_ms);
-    tracking.push_back(t.tracking_ms);
-    total.push_back(t.total_ms);
+  std::vector<double> extraction, tracking, tracking_thread, total, mask_wait, segmentation;
+  nlohmann::json per_frame = nlohmann::json::array();
+  long in_mask = 0, semantic_removed = 0, stage1_checked = 0, stage1_removed = 0, stage2_removed = 0;
+  size_t fresh_masks = 0, carried_masks = 0, no_mask = 0;
+  for (const FrameStats& f : frames_) {
+    extraction.push_back(f.extraction_ms);
+    tracking.push_back(f.tracking_ms);
+    // The per-frame cost on the tracking thread: extraction and pose estimation, not waiting.
+    tracking_thread.push_back(f.extraction_ms + f.tracking_ms);
+    total.push_back(f.total_ms);
+    mask_wait.push_back(f.mask_wait_ms);
+    if (f.segmentation_ms >= 0) segmentation.push_back(f.segmentation_ms);
+    in_mask += f.in_mask;
+    semantic_removed += f.semantic_removed;
+    stage1_checked += f.stage1_checked;
+    stage1_removed += f.stage1_removed;
+    stage2_removed += f.stage2_removed;
+    if (f.mask_age == 0) ++fresh_masks;
+    else if (f.mask_age > 0) ++carried_masks;
+    else ++no_mask;
+    per_frame.push_back({{"features", f.features}, {"in_mask", f.in_mask}, {"semantic_removed", f.semantic_removed},
+                         {"stage1_checked", f.stage1_checked}, {"stage1_removed", f.stage1_removed},
+                         {"stage2_removed", f.stage2_removed}, {"mask_age", f.mask_age},
+                         {"fresh_mask", f.mask_age == 0}, {"segmentation_ms", f.segmentation_ms},
+                         {"tracking_ms", f.extraction_ms + f.tracking_ms}, {"tracked", f.tracked},
+                         {"keyframe", f.keyframe}});
   }
   size_t tracked = 0;
   for (const auto& r : tracker_.records())
@@ -105,13 +242,22 @@ nlohmann::json SlamSystem::statistics() const {
   nlohmann::json j;
   {
     std::shared_lock lock(map_.mutex());
-    j["counts"] = {{"frames", timings_.size()},
+    j["counts"] = {{"frames", frames_.size()},
                    {"frames_tracked", tracked},
                    {"tracking_losses", tracker_.lostFrames()},
                    {"keyframes", map_.keyframeCount()},
                    {"keyframes_created", map_.allKeyframes().size()},
                    {"map_points", map_.pointCount()}};
   }
+  j["dynamic"] = {{"mode", options_.dynamic.mode},
+                  {"features_in_mask", in_mask},
+                  {"removed_by_mask", semantic_removed},
+                  {"stage1_checked", stage1_checked},
+                  {"removed_stage1", stage1_removed},
+                  {"removed_stage2", stage2_removed},
+                  {"frames_with_fresh_mask", fresh_masks},
+                  {"frames_with_carried_mask", carried_masks},
+                  {"frames_without_mask", no_mask}};
   const auto& ms = mapper_.stats();
   j["local_mapping"] = {{"keyframes_processed", ms.keyframes_processed},
                         {"points_triangulated", ms.points_triangulated},
@@ -127,15 +273,45 @@ nlohmann::json SlamSystem::statistics() const {
                           {"local_ba", summarizeMilliseconds(ms.ba_ms)},
                           {"cull_keyframes", summarizeMilliseconds(ms.cull_keyframes_ms)},
                           {"per_keyframe", summarizeMilliseconds(ms.total_ms)}}}};
-  // "tracking" = extraction + pose estimation: the per-frame cost on the tracking thread.
-  std::vector<double> tracking_total(timings_.size());
-  for (size_t i = 0; i < timings_.size(); ++i) tracking_total[i] = timings_[i].extraction_ms + timings_[i].tracking_ms;
   j["timings_ms"] = {{"orb_extraction", summarizeMilliseconds(extraction)},
+                     {"mask_wait", summarizeMilliseconds(mask_wait)},
+                     {"segmentation", summarizeMilliseconds(segmentation)},
                      {"pose_tracking", summarizeMilliseconds(tracking)},
-                     {"tracking", summarizeMilliseconds(tracking_total)},
+                     {"tracking", summarizeMilliseconds(tracking_thread)},
                      {"frame_total", summarizeMilliseconds(total)}};
-  j["mode"] = settings_.deterministic ? "deterministic" : "concurrent";
+  if (semantic_) j["semantic"] = {{"segmented", semantic_->segmentedCount()}, {"dropped", semantic_->droppedCount()}};
+  j["mode"] = settings_.deterministic ? "deterministic" : (settings_.realtime ? "realtime" : "offline");
+  j["per_frame"] = std::move(per_frame);
   return j;
+}
+
+nlohmann::json SlamSystem::exportDenseMap(const std::filesystem::path& out_dir, bool semantic_colour) const {
+  if (!dense_) return {{"enabled", false}};
+  const auto start = std::chrono::steady_clock::now();
+  dense::PoseMap poses;
+  std::vector<SE3> camera_path;
+  {
+    std::shared_lock lock(map_.mutex());
+    for (const map::Keyframe* kf : map_.allKeyframes()) poses[kf->id] = map::keyframeTcw(kf).inverse();
+    for (const map::Keyframe* kf : map_.keyframes()) camera_path.push_back(kf->T_w_c());
+  }
+  dense_->updatePoses(poses);
+  const std::shared_ptr<open3d::geometry::PointCloud> cloud = dense_->fuse(poses, semantic_colour);
+  dense::writePly(out_dir / "dense_map.ply", *cloud);
+  dense::writePcd(out_dir / "dense_map.pcd", *cloud);
+  const dense::DenseMap snapshot = dense_->snapshot();
+  dense::writeOctomap(out_dir / "octomap.bt", snapshot.worldScans(poses), options_.dense.octomap_resolution,
+                      options_.dense.max_depth);
+  dense::RenderSettings render;
+  render.width = options_.dense.render_width;
+  render.height = options_.dense.render_height;
+  render.point_size = options_.dense.voxel_size;
+  dense::renderPng(out_dir / "dense_map.png", *cloud, camera_path, render);
+  return {{"enabled", true},
+          {"keyframes", snapshot.keyframeCount()},
+          {"stored_points", snapshot.storedPointCount()},
+          {"map_points", cloud->points_.size()},
+          {"export_ms", millisecondsSince(start)}};
 }
 
 }  // namespace desslam::system

@@ -1,11 +1,15 @@
-// The whole pipeline behind one object: feed RGB-D frames in order, read trajectories and
+// The whole pipeline behind one object: feed RGB-D frames in order, read trajectories, maps and
 // statistics out. Owns the map and every stage.
 //
-// Threads: tracking runs on the caller's thread (processFrame); local mapping in its own thread
-// unless `deterministic`, where each keyframe is mapped inline before the next frame so two runs
-// give identical results.
+// Threads (DESIGN.md): tracking runs on the caller's thread (processFrame); segmentation in the
+// semantic thread; local mapping and dense mapping in their own threads. With `deterministic`,
+// local mapping runs inline after each keyframe and tracking waits for every mask, so two runs
+// give identical trajectories. In real-time mode tracking never waits for the network: a frame
+// without a fresh mask uses the newest one carried forward by depth and camera motion.
 #pragma once
 
+#include <deque>
+#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -20,17 +24,32 @@
 #include "mapping/local_mapper.hpp"
 #include "tracking/tracker.hpp"
 
+namespace desslam::semantic {
+class SemanticThread;
+}
+namespace desslam::dense {
+class DenseMappingThread;
+}
+
 namespace desslam::system {
 
 struct RunSettings {
   bool deterministic = false;
+  bool realtime = false;            // never wait for segmentation (masks carried forward)
+  std::filesystem::path debug_images_dir;  // empty: none written
 };
 
-// Per-frame timings, milliseconds.
-struct FrameTiming {
+// Per-frame record for the report, milliseconds and counts.
+struct FrameStats {
   double extraction_ms = 0;
-  double tracking_ms = 0;  // pose estimation and keyframe decision (after extraction)
-  double total_ms = 0;     // the whole processFrame call
+  double mask_wait_ms = 0;   // time tracking waited for the semantic mask
+  double tracking_ms = 0;    // pose estimation, dynamic checks and keyframe decision
+  double total_ms = 0;       // the whole processFrame call
+  double segmentation_ms = -1;  // network time of the mask used (-1: none)
+  int mask_age = -1;         // frames between the mask's frame and this one (0 = fresh, -1 = no mask)
+  int features = 0, in_mask = 0, semantic_removed = 0, stage1_checked = 0, stage1_removed = 0, stage2_removed = 0;
+  bool tracked = false;
+  bool keyframe = false;
 };
 
 class SlamSystem {
@@ -38,7 +57,8 @@ class SlamSystem {
   SlamSystem(const SystemOptions& options, const RunSettings& settings);
   ~SlamSystem();
 
-  // bgr: CV_8UC3, depth: CV_32F metres. Frames must come in time order.
+  // bgr: CV_8UC3, depth: CV_32F metres; neither is modified nor copied, so the caller must not
+  // write into them afterwards. Frames must come in time order.
   void processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv::Mat& depth, const std::string& image_name);
   // Waits for mapping to finish its queue and stops the threads. Idempotent.
   void finish();
@@ -46,14 +66,22 @@ class SlamSystem {
   // Poses of every tracked frame (world-from-camera), following the final keyframe poses.
   Trajectory cameraTrajectory() const;
   Trajectory keyframeTrajectory() const;
-  // Counts, timings (median/p95) and stage statistics for report.json.
+  // After finish(): fuses the dense map with the final keyframe poses and writes dense_map.ply,
+  // dense_map.pcd, octomap.bt and dense_map.png into out_dir. Returns counts and timings.
+  nlohmann::json exportDenseMap(const std::filesystem::path& out_dir, bool semantic_colour) const;
+  // After finish(): counts, timings (median/p95) and stage statistics for report.json.
   nlohmann::json statistics() const;
 
-  size_t framesProcessed() const { return timings_.size(); }
-  bool lastFrameTracked() const { return last_tracked_; }
-  const std::vector<FrameTiming>& timings() const { return timings_; }
+  size_t framesProcessed() const { return frames_.size(); }
+  bool lastFrameTracked() const { return !frames_.empty() && frames_.back().tracked; }
+  const std::vector<FrameStats>& frameStats() const { return frames_; }
 
  private:
+  // The dilated mask of dynamic classes for this frame, and its provenance.
+  cv::Mat maskFor(uint64_t frame_id, const cv::Mat& depth, FrameStats& stats);
+  void pushDenseKeyframe(const map::Keyframe* kf, const map::Frame& frame, const cv::Mat& bgr,
+                         const cv::Mat& labels) const;
+
   SystemOptions options_;
   RunSettings settings_;
   PinholeCamera camera_;
@@ -63,9 +91,21 @@ class SlamSystem {
   tracking::Tracker tracker_;
   mapping::LocalMapper mapper_;
   std::unique_ptr<mapping::LocalMappingThread> mapping_thread_;  // null when deterministic
-  std::vector<FrameTiming> timings_;
+  std::unique_ptr<semantic::SemanticThread> semantic_;           // null when no masks are used
+  std::unique_ptr<dense::DenseMappingThread> dense_;             // null when dense.enabled is false
+
+  // Recent frames (tracking thread only), to carry a late mask forward in real-time mode.
+  struct RecentFrame {
+    uint64_t id;
+    cv::Mat depth;
+    SE3 T_c_w;
+    bool tracked;
+  };
+  std::deque<RecentFrame> recent_;
+  cv::Mat last_labels_;  // labels of the mask used for the current frame (dense semantic colour)
+
+  std::vector<FrameStats> frames_;
   uint64_t next_frame_id_ = 0;
-  bool last_tracked_ = false;
   bool finished_ = false;
 };
 

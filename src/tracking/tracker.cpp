@@ -6,6 +6,7 @@
 #include <mutex>
 #include <shared_mutex>
 
+#include "dynamic/depth_checks.hpp"
 #include "optim/pose_optimizer.hpp"
 
 namespace desslam::tracking {
@@ -15,16 +16,21 @@ constexpr int kMinInitialPoints = 300;     // depth-backed features needed to st
 constexpr int kMinMotionMatches = 20;      // below: widen the window once, then give up
 constexpr int kMinMapInliersStep = 10;     // after motion-model / reference-keyframe tracking
 constexpr int kMinLocalMapInliers = 30;    // after local-map tracking
+constexpr int kMinLocalMapInliersAfterStage2 = 20;
 constexpr double kMotionRadius = 7.0;      // pixels at level 0, frame-to-frame window
 constexpr double kLocalMapRadius = 3.0;    // RGB-D local-map window factor
 constexpr int kCloseTrackedNeeded = 100;   // "need close points" keyframe criterion
 constexpr int kCloseUntrackedEnough = 70;
 constexpr int kMinNewDepthPoints = 100;    // a keyframe gets at least this many depth points
+constexpr size_t kRecoveryKeyframes = 8;   // when lost, the newest keyframes tried before giving up
+// Keyframes keep a half-resolution depth image only when stage 2 will look at it.
 }  // namespace
 
 Tracker::Tracker(const SystemOptions& options, const PinholeCamera& camera, map::Map& map)
     : options_(options), camera_(camera), map_(map), bf_(camera.fx() * options.tracking.depth_baseline) {
   matcher_options_.bf = bf_;
+  const std::string& mode = options.dynamic.mode;
+  stage1_enabled_ = stage2_enabled_ = mode == "full" || mode == "geometric";
 }
 
 TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle) {
@@ -41,13 +47,27 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle) {
   }
 
   bool ok = false;
-  if (state_ == TrackingState::kOk && velocity_) {
+  const bool had_motion = state_ == TrackingState::kOk && velocity_.has_value();
+  if (had_motion) {
     ok = trackWithMotionModel(frame);
     outcome.used_motion_model = ok;
   }
   if (!ok) ok = trackReferenceKeyframe(frame);
+  if (!ok && state_ == TrackingState::kLost) ok = trackRecentKeyframes(frame);
+  if (!ok) {
+    // Too few features outside the mask for a first estimate (a person filling the view):
+    // fall back on the motion prediction and let the local map decide.
+    frame.clearMatches();
+    frame.T_c_w = velocity_ ? *velocity_ * last_frame_.T_c_w : last_frame_.T_c_w;
+  }
+  if (stage1_enabled_) applyStage1(frame, outcome);
   int inliers = 0;
-  if (ok) ok = trackLocalMap(frame, inliers);
+  if (ok || had_motion) ok = trackLocalMap(frame, inliers);
+  if (ok && stage2_enabled_) {
+    outcome.stage2_removed = applyStage2(frame);
+    if (outcome.stage2_removed > 0) inliers = optimizeFramePose(frame);
+    ok = inliers >= kMinLocalMapInliersAfterStage2;
+  }
   outcome.inliers = inliers;
 
   if (!ok) {
@@ -72,10 +92,19 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle) {
   records_.push_back({frame.id, frame.timestamp, reference_keyframe_, last_T_c_r_});
   // Visual-odometry matches only serve the next frame's motion-model search.
   last_frame_ = frame;
+  if (stage1_enabled_) {
+    history_.push_back(frame);
+    while (history_.size() > 1 &&
+           frame.timestamp - history_[1].timestamp >= options_.dynamic.stage1_min_interval_s)
+      history_.pop_front();
+  }
   return outcome;
 }
 
 bool Tracker::initialize(map::Frame& frame, TrackOutcome& outcome) {
+  // Without a previous frame stage 1 cannot vouch for masked features: keep them out of the map.
+  for (auto& status : frame.status)
+    if (status == map::FeatureStatus::kPendingStage1) status = map::FeatureStatus::kDynamicMask;
   int with_depth = 0;
   for (size_t i = 0; i < frame.features->size(); ++i)
     if (frame.usable(i) && frame.features->hasDepth(i)) ++with_depth;
@@ -88,7 +117,8 @@ bool Tracker::initialize(map::Frame& frame, TrackOutcome& outcome) {
   map::Keyframe* kf = nullptr;
   {
     std::unique_lock lock(map_.mutex());
-    kf = map_.createKeyframe(frame.id, frame.timestamp, frame.image_name, frame.features, frame.status, frame.T_c_w);
+    kf = map_.createKeyframe(frame.id, frame.timestamp, frame.image_name, frame.features, frame.status,
+                             halfDepthFor(frame), frame.T_c_w);
     for (size_t i = 0; i < frame.features->size(); ++i) {
       if (!frame.usable(i) || !frame.features->hasDepth(i)) continue;
       map::MapPoint* p = map_.createPoint(camera_.backProject(frame.features->uv[i], frame.features->depth[i]), kf);
@@ -105,6 +135,7 @@ bool Tracker::initialize(map::Frame& frame, TrackOutcome& outcome) {
   last_reference_ = kf;
   last_T_c_r_ = SE3::identity();
   last_frame_ = frame;
+  if (stage1_enabled_) history_.push_back(frame);
   records_.push_back({frame.id, frame.timestamp, kf, SE3::identity()});
   outcome.tracked = true;
   outcome.new_keyframe = kf;
@@ -154,20 +185,40 @@ bool Tracker::trackWithMotionModel(map::Frame& frame) {
   return optimizeFramePose(frame) >= kMinMapInliersStep;
 }
 
-bool Tracker::trackReferenceKeyframe(map::Frame& frame) {
-  if (reference_keyframe_ == nullptr) return false;
+bool Tracker::trackReferenceKeyframe(map::Frame& frame) { return trackKeyframe(frame, reference_keyframe_); }
+
+bool Tracker::trackRecentKeyframes(map::Frame& frame) {
+  std::vector<map::Keyframe*> recent;
+  {
+    std::shared_lock lock(map_.mutex());
+    const std::vector<map::Keyframe*> all = map_.keyframes();
+    for (auto it = all.rbegin(); it != all.rend() && recent.size() < kRecoveryKeyframes; ++it)
+      if (*it != reference_keyframe_) recent.push_back(*it);
+  }
+  for (map::Keyframe* kf : recent) {
+    if (trackKeyframe(frame, kf)) {
+      reference_keyframe_ = kf;
+      return true;
+    }
+  }
+  return false;
+}
+
+bool Tracker::trackKeyframe(map::Frame& frame, map::Keyframe* keyframe) {
+  if (keyframe == nullptr) return false;
   frame.clearMatches();
   std::vector<int> kf_indices, frame_indices;
   std::vector<map::MapPoint*> kf_points;
   {
     std::shared_lock lock(map_.mutex());
-    kf_points = reference_keyframe_->points;
+    if (keyframe->bad) return false;
+    kf_points = keyframe->points;
   }
   for (size_t i = 0; i < kf_points.size(); ++i)
     if (kf_points[i] != nullptr) kf_indices.push_back(static_cast<int>(i));
   for (size_t i = 0; i < frame.features->size(); ++i)
     if (frame.usable(i)) frame_indices.push_back(static_cast<int>(i));
-  const auto pairs = matching::matchDescriptors(*reference_keyframe_->features, kf_indices, *frame.features,
+  const auto pairs = matching::matchDescriptors(*keyframe->features, kf_indices, *frame.features,
                                                 frame_indices, matcher_options_.strict_distance, 0.7, true);
   if (static_cast<int>(pairs.size()) < 15) return false;
   {
@@ -178,7 +229,11 @@ bool Tracker::trackReferenceKeyframe(map::Frame& frame) {
       frame.matches[iframe].point = p;
     }
   }
-  frame.T_c_w = last_frame_.T_c_w;
+  {
+    std::shared_lock lock(map_.mutex());
+    // Start from the last tracked pose for the reference keyframe, from the keyframe otherwise.
+    frame.T_c_w = keyframe == reference_keyframe_ ? last_frame_.T_c_w : keyframe->T_c_w;
+  }
   return optimizeFramePose(frame) >= kMinMapInliersStep;
 }
 
@@ -360,11 +415,87 @@ bool Tracker::needKeyframe(const map::Frame& frame, int inliers, bool mapping_id
   return ((timeout || mapping_idle || weak) && fewer_than_reference) || (moved && inliers > 15);
 }
 
+cv::Mat Tracker::halfDepthFor(const map::Frame& frame) const {
+  if (!stage2_enabled_ || frame.depth.empty()) return {};
+  return dynamic::makeHalfResolutionDepth(frame.depth);
+}
+
+void Tracker::applyStage1(map::Frame& frame, TrackOutcome& outcome) {
+  const bool geometric_only = options_.dynamic.mode == "geometric";
+  dynamic::Stage1Input input;
+  input.current = frame.features.get();
+  input.current_depth = &frame.depth;
+  input.mask = geometric_only || frame.dynamic_mask.empty() ? nullptr : &frame.dynamic_mask;
+  input.mask_is_dilated = true;
+  const map::Frame& reference = stage1Reference(frame);
+  input.previous = reference.features.get();
+  input.T_k_km1 = frame.T_c_w * reference.T_c_w.inverse();
+  if (input.mask == nullptr && !geometric_only) {
+    // No mask for this frame: nothing is pending, nothing to check.
+    for (auto& status : frame.status)
+      if (status == map::FeatureStatus::kPendingStage1) status = map::FeatureStatus::kStatic;
+    return;
+  }
+  const dynamic::Stage1Result result = dynamic::runStage1(input, camera_, options_.dynamic);
+  outcome.stage1_checked = result.in_mask_count;
+  for (size_t i = 0; i < frame.status.size(); ++i) {
+    if (frame.status[i] != map::FeatureStatus::kPendingStage1 && frame.status[i] != map::FeatureStatus::kStatic) continue;
+    if (result.dynamic[i]) {
+      frame.status[i] = map::FeatureStatus::kDynamicStage1;
+      frame.matches[i] = {};
+      ++outcome.stage1_removed;
+    } else {
+      frame.status[i] = map::FeatureStatus::kStatic;
+    }
+  }
+}
+
+const map::Frame& Tracker::stage1Reference(const map::Frame& frame) const {
+  for (auto it = history_.rbegin(); it != history_.rend(); ++it)
+    if (frame.timestamp - it->timestamp >= options_.dynamic.stage1_min_interval_s) return *it;
+  return history_.empty() ? last_frame_ : history_.front();
+}
+
+int Tracker::applyStage2(map::Frame& frame) {
+  std::vector<map::MapPoint*> culled;
+  {
+    std::shared_lock lock(map_.mutex());
+    if (reference_keyframe_ == nullptr) return 0;
+    std::vector<map::Keyframe*> candidates{reference_keyframe_};
+    for (map::Keyframe* kf : map::bestCovisibles(reference_keyframe_, 3 * options_.dynamic.stage2_keyframes))
+      candidates.push_back(kf);
+    std::vector<dynamic::KeyframeDepthView> views;
+    for (size_t i = 0; i < frame.matches.size(); ++i) {
+      map::MapPoint* p = frame.matches[i].point;
+      if (p == nullptr || p->bad || frame.matches[i].outlier) continue;
+      // Keyframes observing the point agree with it by construction: ask the others.
+      views.clear();
+      for (map::Keyframe* kf : candidates) {
+        if (static_cast<int>(views.size()) >= options_.dynamic.stage2_keyframes) break;
+        if (kf->bad || kf->half_depth.empty() || p->observations.count(kf->id) != 0) continue;
+        views.push_back({kf->T_c_w, &kf->half_depth});
+      }
+      if (views.empty()) continue;
+      if (dynamic::checkStage2(p->position, views, camera_, options_.dynamic).dynamic) {
+        frame.status[i] = map::FeatureStatus::kDynamicStage2;
+        frame.matches[i] = {};
+        culled.push_back(p);
+      }
+    }
+  }
+  if (!culled.empty()) {
+    std::unique_lock lock(map_.mutex());
+    for (map::MapPoint* p : culled) map_.setPointBad(p);
+  }
+  return static_cast<int>(culled.size());
+}
+
 map::Keyframe* Tracker::createKeyframe(map::Frame& frame) {
   map::Keyframe* kf = nullptr;
   {
     std::unique_lock lock(map_.mutex());
-    kf = map_.createKeyframe(frame.id, frame.timestamp, frame.image_name, frame.features, frame.status, frame.T_c_w);
+    kf = map_.createKeyframe(frame.id, frame.timestamp, frame.image_name, frame.features, frame.status,
+                             halfDepthFor(frame), frame.T_c_w);
     for (size_t i = 0; i < frame.matches.size(); ++i) {
       map::MapPoint* p = frame.matches[i].point;
       if (p != nullptr && !p->bad && !frame.matches[i].outlier && p->observations.count(kf->id) == 0)

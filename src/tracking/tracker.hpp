@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
 #include <optional>
 #include <vector>
 
@@ -31,6 +32,9 @@ struct FrameRecord {
 
 struct TrackOutcome {
   bool tracked = false;
+  int stage1_checked = 0;   // features examined by stage 1 (in the mask, or all in geometric mode)
+  int stage1_removed = 0;   // found dynamic by stage 1
+  int stage2_removed = 0;   // found dynamic by stage 2 (their map points culled)
   map::Keyframe* new_keyframe = nullptr;  // to hand to local mapping
   int inliers = 0;                        // map-point inliers after local-map tracking
   bool used_motion_model = false;
@@ -52,12 +56,26 @@ class Tracker {
   bool initialize(map::Frame& frame, TrackOutcome& outcome);
   bool trackWithMotionModel(map::Frame& frame);
   bool trackReferenceKeyframe(map::Frame& frame);
+  // Descriptor matching against one keyframe's map points, then pose-only optimisation.
+  bool trackKeyframe(map::Frame& frame, map::Keyframe* keyframe);
+  // When lost: the newest keyframes, one after another (relocalisation light).
+  bool trackRecentKeyframes(map::Frame& frame);
   bool trackLocalMap(map::Frame& frame, int& inliers);
+  // Stage 1: features in the mask (all features in geometric mode) whose depth disagrees with
+  // the previous frame's, given the pose estimated without them, become dynamic.
+  void applyStage1(map::Frame& frame, TrackOutcome& outcome);
+  // The newest tracked frame at least dynamic.stage1_min_interval_s older than `frame`.
+  const map::Frame& stage1Reference(const map::Frame& frame) const;
+  // Stage 2: matched map points whose depth disagrees with co-visible keyframes' observed depth
+  // are residual dynamics: the feature leaves the pose estimate, the point is culled.
+  // Returns the number removed.
+  int applyStage2(map::Frame& frame);
   // Pose-only optimisation on the frame's matches; drops outliers. Returns map-point inliers.
   int optimizeFramePose(map::Frame& frame);
   void updateLocalMap(const map::Frame& frame);
   bool needKeyframe(const map::Frame& frame, int inliers, bool mapping_idle) const;
   map::Keyframe* createKeyframe(map::Frame& frame);
+  cv::Mat halfDepthFor(const map::Frame& frame) const;
   void createDepthPoints(map::Frame& frame, map::Keyframe* kf);  // exclusive lock held
 
   SystemOptions options_;
@@ -65,6 +83,8 @@ class Tracker {
   map::Map& map_;
   double bf_;
   matching::MatcherOptions matcher_options_;
+  bool stage1_enabled_ = false;  // dynamic.mode full or geometric
+  bool stage2_enabled_ = false;
 
   TrackingState state_ = TrackingState::kNotInitialized;
   map::Frame last_frame_;
@@ -77,6 +97,7 @@ class Tracker {
   std::vector<map::Keyframe*> local_keyframes_;
   std::vector<map::MapPoint*> local_points_;
   std::vector<uint64_t> point_stamp_;  // per point id: frame id it was last added to the local map
+  std::deque<map::Frame> history_;  // recent tracked frames, newest last (stage-1 references)
   std::vector<FrameRecord> records_;
   int lost_frames_ = 0;
 };
