@@ -26,13 +26,13 @@ class BoundedQueue {
   // Returns false when the queue is closed (the message is not enqueued).
   bool push(T value) {
     std::unique_lock lock(mutex_);
-    if (policy_ == QueueFullPolicy::kBlock) {
+    if (policy_ == QueueFullPolicy::kBlock)
       not_full_.wait(lock, [&] { return closed_ || items_.size() < capacity_; });
-    } else if (items_.size() >= capacity_) {
+    if (closed_) return false;
+    if (policy_ == QueueFullPolicy::kDropOldest && items_.size() >= capacity_) {
       items_.pop_front();
       ++dropped_;
     }
-    if (closed_) return false;
     items_.push_back(std::move(value));
     not_empty_.notify_one();
     return true;

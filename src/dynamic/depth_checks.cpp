@@ -175,7 +175,13 @@ Stage1Result runStage1(const Stage1Input& input, const PinholeCamera& camera, co
       }
     }
     r.residual[i] = worst;
-    if (exceeds(worst, options.stage1_threshold)) {
+    // A static point re-projects onto the feature it matched; one that lands farther away moved
+    // in the image even when its depth happens to agree (e.g. a matched patch of the same person
+    // a few centimetres further along).
+    const double reprojection_limit = options.stage1_max_reprojection_px * current.pyramid->scale[current.level(i)];
+    const bool moved_in_image =
+        d_proj <= 0 || (camera.project(p_k) - current.uv[i]).norm() > reprojection_limit;
+    if (exceeds(worst, options.stage1_threshold) || moved_in_image) {
       outcome = Stage1Outcome::kDynamic;
       r.dynamic[i] = 1;
       ++r.dynamic_count;
