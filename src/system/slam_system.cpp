@@ -5,11 +5,9 @@
 #include <mutex>
 #include <shared_mutex>
 
+#include <open3d/geometry/PointCloud.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <spdlog/spdlog.h>
-
-#include <open3d/geometry/PointCloud.h>
 
 #include "dense/dense_thread.hpp"
 #include "dense/map_export.hpp"
@@ -161,8 +159,10 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
     const std::filesystem::path path = settings_.debug_images_dir / image_name;
     cv::imwrite(path.string(), drawDynamicDebugView(bgr, frame.dynamic_mask, frame));
   }
-  recent_.push_back({frame_id, depth, frame.T_c_w, outcome.tracked});
-  if (recent_.size() > kRecentFrames) recent_.pop_front();
+  if (settings_.realtime && semantic_) {
+    recent_.push_back({frame_id, depth, frame.T_c_w, outcome.tracked});
+    if (recent_.size() > kRecentFrames) recent_.pop_front();
+  }
   stats.total_ms = millisecondsSince(start);
   frames_.push_back(stats);
 }

@@ -97,7 +97,7 @@ class SlamSystem {
   std::unique_ptr<semantic::SemanticThread> semantic_;           // null when no masks are used
   std::unique_ptr<dense::DenseMappingThread> dense_;             // null when dense.enabled is false
 
-  // Recent frames (tracking thread only), to carry a late mask forward in real-time mode.
+  // Recent frames (tracking thread only), to carry a late mask forward; real-time mode only.
   struct RecentFrame {
     uint64_t id;
     cv::Mat depth;

@@ -22,7 +22,9 @@ constexpr double kLocalMapRadius = 3.0;    // RGB-D local-map window factor
 constexpr int kCloseTrackedNeeded = 100;   // "need close points" keyframe criterion
 constexpr int kCloseUntrackedEnough = 70;
 constexpr int kMinNewDepthPoints = 100;    // a keyframe gets at least this many depth points
-constexpr size_t kRecoveryKeyframes = 8;   // when lost, the newest keyframes tried before giving up
+constexpr size_t kRecoveryKeyframes = 8;
+constexpr double kStillTranslation = 0.005;        // metres per frame below which motion is negligible
+constexpr double kStillRotation = 0.5 * M_PI / 180;  // radians per frame   // when lost, the newest keyframes tried before giving up
 // Keyframes keep a half-resolution depth image only when stage 2 will look at it.
 }  // namespace
 
@@ -143,7 +145,6 @@ bool Tracker::initialize(map::Frame& frame, TrackOutcome& outcome) {
 }
 
 bool Tracker::trackWithMotionModel(map::Frame& frame) {
-  frame.T_c_w = *velocity_ * last_frame_.T_c_w;
   const map::FeatureSet& last = *last_frame_.features;
   const auto& pyramid = *last.pyramid;
   const int top_level = static_cast<int>(pyramid.scale.size()) - 1;
@@ -174,15 +175,33 @@ bool Tracker::trackWithMotionModel(map::Frame& frame) {
       candidates.push_back(c);
     }
   }
-  frame.clearMatches();
-  int matches = matching::searchByProjection(frame, camera_, candidates, matcher_options_);
-  if (matches < kMinMotionMatches) {
-    frame.clearMatches();
-    for (auto& c : candidates) c.radius *= 2.0;
-    matches = matching::searchByProjection(frame, camera_, candidates, matcher_options_);
+  // One hypothesis: guided search around the points' predicted projections, widened once, then
+  // pose-only optimisation. Returns the map-point inliers (0 when too few matches).
+  auto attempt = [&](map::Frame& f, const SE3& predicted_T_c_w) {
+    f.T_c_w = predicted_T_c_w;
+    f.clearMatches();
+    std::vector<matching::ProjectionCandidate> window = candidates;
+    int matches = matching::searchByProjection(f, camera_, window, matcher_options_);
+    if (matches < kMinMotionMatches) {
+      f.clearMatches();
+      for (auto& c : window) c.radius *= 2.0;
+      matches = matching::searchByProjection(f, camera_, window, matcher_options_);
+    }
+    return matches < kMinMotionMatches ? 0 : optimizeFramePose(f);
+  };
+  int inliers = attempt(frame, *velocity_ * last_frame_.T_c_w);
+  // People walking past a camera that stops can hold a constant-velocity prediction on their
+  // motion (their features sit where the prediction looks). The constant-position hypothesis
+  // competes whenever the velocity is not negligible; the one with more inliers wins.
+  if (velocity_->translation().norm() > kStillTranslation || velocity_->rotationAngle() > kStillRotation) {
+    map::Frame still = frame;
+    const int still_inliers = attempt(still, last_frame_.T_c_w);
+    if (still_inliers > inliers) {
+      frame = std::move(still);
+      inliers = still_inliers;
+    }
   }
-  if (matches < kMinMotionMatches) return false;
-  return optimizeFramePose(frame) >= kMinMapInliersStep;
+  return inliers >= kMinMapInliersStep;
 }
 
 bool Tracker::trackReferenceKeyframe(map::Frame& frame) { return trackKeyframe(frame, reference_keyframe_); }

@@ -89,6 +89,30 @@ TEST(Stage1, ResidualJustAboveThresholdIsRemoved) {
   EXPECT_EQ(far.dynamic[0], 1);
 }
 
+// The matched frame k-1 point re-projects dx pixels beside the feature, at the same depth: a
+// static point would land on it, so beyond stage1_max_reprojection_px it moved in the image.
+Scenario displacedScenario(float dx) {
+  Scenario s;
+  s.previous_depth = depthImage(2.0f);
+  s.current_depth = depthImage(2.0f);
+  s.previous = makeFeatures({{kCentre, 1}}, s.camera, s.previous_depth);
+  s.current = makeFeatures({{kCentre + cv::Point2f(dx, 0), 1}}, s.camera, s.current_depth);
+  return s;
+}
+
+TEST(Stage1, FeatureDisplacedFromItsReprojectionIsDynamicEvenWithConsistentDepth) {
+  DynamicOptions options;  // 4 px at level 0
+  const Stage1Result near = displacedScenario(3.9f).run(options);
+  EXPECT_NEAR(near.residual_forward[0], 0.0, 1e-9);
+  EXPECT_EQ(near.outcome[0], Stage1Outcome::kConsistent);
+  const Stage1Result far = displacedScenario(4.1f).run(options);
+  EXPECT_NEAR(far.residual_forward[0], 0.0, 1e-9);
+  EXPECT_EQ(far.previous_index[0], 0);
+  EXPECT_EQ(far.outcome[0], Stage1Outcome::kDynamic);
+  options.stage1_max_reprojection_px = 5.0;
+  EXPECT_EQ(displacedScenario(4.1f).run(options).outcome[0], Stage1Outcome::kConsistent);
+}
+
 TEST(Stage1, ThresholdComesFromTheOptions) {
   DynamicOptions loose;
   loose.stage1_threshold = 0.2;
@@ -187,7 +211,9 @@ Scenario uncheckableScenario() {
 }
 
 TEST(Stage1, UncheckableFeaturesAreKeptUnderPolicyKeep) {
-  const Stage1Result r = uncheckableScenario().run();
+  DynamicOptions keep;
+  keep.stage1_unmatched_policy = "keep";
+  const Stage1Result r = uncheckableScenario().run(keep);
   EXPECT_EQ(r.outcome[0], Stage1Outcome::kUnmatched);
   EXPECT_EQ(r.outcome[1], Stage1Outcome::kNoDepth);
   EXPECT_EQ(r.outcome[2], Stage1Outcome::kNoDepth);
