@@ -150,8 +150,13 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   if (outcome.new_keyframe != nullptr) {
     stats.keyframe = true;
     if (dense_) pushDenseKeyframe(outcome.new_keyframe, frame, bgr, last_labels_);
-    if (mapping_thread_)
+    if (mapping_thread_) {
+      // Offline: mapping may run behind by one keyframe at most, so that tracking always has the
+      // map of the keyframe before last (unpaced input would otherwise outrun it). Real time:
+      // never wait; the bounded queue absorbs bursts.
+      if (!settings_.realtime) mapping_thread_->waitUntilIdle();
       mapping_thread_->push(outcome.new_keyframe);
+    }
     else
       mapper_.process(outcome.new_keyframe, nullptr);
   }

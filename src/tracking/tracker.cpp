@@ -22,9 +22,9 @@ constexpr double kLocalMapRadius = 3.0;    // RGB-D local-map window factor
 constexpr int kCloseTrackedNeeded = 100;   // "need close points" keyframe criterion
 constexpr int kCloseUntrackedEnough = 70;
 constexpr int kMinNewDepthPoints = 100;    // a keyframe gets at least this many depth points
-constexpr size_t kRecoveryKeyframes = 8;
+constexpr size_t kRecoveryKeyframes = 8;   // when lost, the newest keyframes tried before giving up
 constexpr double kStillTranslation = 0.005;        // metres per frame below which motion is negligible
-constexpr double kStillRotation = 0.5 * M_PI / 180;  // radians per frame   // when lost, the newest keyframes tried before giving up
+constexpr double kStillRotation = 0.5 * M_PI / 180;  // radians per frame
 // Keyframes keep a half-resolution depth image only when stage 2 will look at it.
 }  // namespace
 
@@ -56,15 +56,19 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle) {
   }
   if (!ok) ok = trackReferenceKeyframe(frame);
   if (!ok && state_ == TrackingState::kLost) ok = trackRecentKeyframes(frame);
+  // Too few features outside the mask for a first estimate (a person filling the view): fall
+  // back on the motion prediction and let stage 1 and the local map decide. Only then: without
+  // masked features a failed first estimate means the prediction is not to be trusted.
+  const bool masked_features_pending =
+      std::count(frame.status.begin(), frame.status.end(), map::FeatureStatus::kPendingStage1) > 0;
+  const bool use_prediction = !ok && had_motion && masked_features_pending;
   if (!ok) {
-    // Too few features outside the mask for a first estimate (a person filling the view):
-    // fall back on the motion prediction and let the local map decide.
     frame.clearMatches();
     frame.T_c_w = velocity_ ? *velocity_ * last_frame_.T_c_w : last_frame_.T_c_w;
   }
   if (stage1_enabled_) applyStage1(frame, outcome);
   int inliers = 0;
-  if (ok || had_motion) ok = trackLocalMap(frame, inliers);
+  if (ok || use_prediction) ok = trackLocalMap(frame, inliers);
   if (ok && stage2_enabled_) {
     outcome.stage2_removed = applyStage2(frame);
     if (outcome.stage2_removed > 0) inliers = optimizeFramePose(frame);
@@ -193,7 +197,8 @@ bool Tracker::trackWithMotionModel(map::Frame& frame) {
   // People walking past a camera that stops can hold a constant-velocity prediction on their
   // motion (their features sit where the prediction looks). The constant-position hypothesis
   // competes whenever the velocity is not negligible; the one with more inliers wins.
-  if (velocity_->translation().norm() > kStillTranslation || velocity_->rotationAngle() > kStillRotation) {
+  if (options_.tracking.still_camera_hypothesis &&
+      (velocity_->translation().norm() > kStillTranslation || velocity_->rotationAngle() > kStillRotation)) {
     map::Frame still = frame;
     const int still_inliers = attempt(still, last_frame_.T_c_w);
     if (still_inliers > inliers) {
