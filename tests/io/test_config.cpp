@@ -5,7 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "core/error.hpp"
-#include "io/temp_dir.hpp"
+#include "support/temp_dir.hpp"
 #include "support/shared_data.hpp"
 
 namespace desslam::io {

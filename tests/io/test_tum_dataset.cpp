@@ -10,7 +10,7 @@
 
 #include "core/error.hpp"
 #include "io/config.hpp"
-#include "io/temp_dir.hpp"
+#include "support/temp_dir.hpp"
 #include "support/shared_data.hpp"
 
 namespace desslam::io {

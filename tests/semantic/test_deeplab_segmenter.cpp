@@ -10,7 +10,7 @@
 #include "core/error.hpp"
 #include "semantic/deeplab_segmenter.hpp"
 #include "semantic/sha256.hpp"
-#include "semantic/temp_dir.hpp"
+#include "support/temp_dir.hpp"
 #include "support/shared_data.hpp"
 
 namespace desslam::semantic {
@@ -68,7 +68,7 @@ TEST(ModelPath, ExplicitPathIsTheOnlyCandidate) {
 }
 
 TEST(ModelPath, SharedDirEnvironmentVariableComesFirst) {
-  test::TempDir dir("model_env");
+  test::TempDir dir;
   fs::create_directories(dir.path() / "models");
   std::ofstream(dir.path() / "models" / kDeepLabModelFile) << "placeholder";
   ScopedEnv env("DESSLAM_SHARED_DIR", dir.path().string());
@@ -87,7 +87,7 @@ TEST(DeepLab, MissingModelNamesPathAndExpectedHash) {
 }
 
 TEST(DeepLab, MissingModelInDefaultPlacesListsThem) {
-  test::TempDir dir("model_missing");
+  test::TempDir dir;
   fs::create_directories(dir.path() / "work");
   ScopedEnv env("DESSLAM_SHARED_DIR", dir.path().string());
   ScopedCwd cwd(dir.path() / "work");  // ../shared from here is <temp>/shared: absent
@@ -101,7 +101,7 @@ TEST(DeepLab, MissingModelInDefaultPlacesListsThem) {
 }
 
 TEST(DeepLab, WrongHashIsRejectedWithBothHashes) {
-  test::TempDir dir("model_hash");
+  test::TempDir dir;
   const fs::path file = dir.path() / "model.onnx";
   std::ofstream(file) << "not a network";
   SemanticOptions options;
@@ -113,7 +113,7 @@ TEST(DeepLab, WrongHashIsRejectedWithBothHashes) {
 }
 
 TEST(DeepLab, UnloadableFileWithoutHashCheckIsAConfigError) {
-  test::TempDir dir("model_garbage");
+  test::TempDir dir;
   const fs::path file = dir.path() / "model.onnx";
   std::ofstream(file) << "not a network";
   SemanticOptions options;

@@ -6,13 +6,13 @@
 
 #include "core/error.hpp"
 #include "semantic/mask_directory_segmenter.hpp"
-#include "semantic/temp_dir.hpp"
+#include "support/temp_dir.hpp"
 
 namespace desslam::semantic {
 namespace {
 
 TEST(MaskDirectory, NonzeroPixelsAreDynamic) {
-  test::TempDir dir("masks");
+  test::TempDir dir;
   cv::Mat mask(48, 64, CV_8U, cv::Scalar(0));
   mask(cv::Rect(10, 5, 20, 15)).setTo(1);  // any nonzero value counts, not only 255
   ASSERT_TRUE(cv::imwrite((dir.path() / "1305031102.175304.png").string(), mask));
@@ -30,7 +30,7 @@ TEST(MaskDirectory, NonzeroPixelsAreDynamic) {
 }
 
 TEST(MaskDirectory, SixteenBitAndColourMasks) {
-  test::TempDir dir("masks16");
+  test::TempDir dir;
   cv::Mat deep(8, 8, CV_16U, cv::Scalar(0));
   deep.at<std::uint16_t>(2, 3) = 256;  // zero in the low byte: must still count
   ASSERT_TRUE(cv::imwrite((dir.path() / "a.png").string(), deep));
@@ -49,7 +49,7 @@ TEST(MaskDirectory, SixteenBitAndColourMasks) {
 }
 
 TEST(MaskDirectory, MissingMaskNamesTheFile) {
-  test::TempDir dir("masks_missing");
+  test::TempDir dir;
   MaskDirectorySegmenter segmenter(dir.path());
   try {
     segmenter.segment(cv::Mat(8, 8, CV_8UC3), "1305031102.175304.png");
@@ -62,7 +62,7 @@ TEST(MaskDirectory, MissingMaskNamesTheFile) {
 }
 
 TEST(MaskDirectory, SizeMismatchIsAnInputError) {
-  test::TempDir dir("masks_size");
+  test::TempDir dir;
   ASSERT_TRUE(cv::imwrite((dir.path() / "f.png").string(), cv::Mat(8, 8, CV_8U, cv::Scalar(0))));
   MaskDirectorySegmenter segmenter(dir.path());
   EXPECT_THROW(segmenter.segment(cv::Mat(16, 8, CV_8UC3), "f.png"), InputError);
@@ -77,7 +77,7 @@ TEST(MaskDirectory, MissingDirectoryIsAnInputError) {
 }
 
 TEST(MaskDirectory, MadeFromOptions) {
-  test::TempDir dir("masks_options");
+  test::TempDir dir;
   SemanticOptions options;
   options.segmenter = "mask_dir";
   options.mask_dir = dir.path().string();

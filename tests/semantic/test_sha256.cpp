@@ -5,7 +5,7 @@
 
 #include "core/error.hpp"
 #include "semantic/sha256.hpp"
-#include "semantic/temp_dir.hpp"
+#include "support/temp_dir.hpp"
 
 namespace desslam::semantic {
 namespace {
@@ -38,7 +38,7 @@ TEST(Sha256, MillionAsFedInOddChunks) {
 }
 
 TEST(Sha256, FileMatchesString) {
-  test::TempDir dir("sha256");
+  test::TempDir dir;
   const auto file = dir.path() / "data.bin";
   std::string content;
   for (int i = 0; i < 200000; ++i) content.push_back(char(i * 7 % 256));
