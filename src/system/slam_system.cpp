@@ -107,7 +107,9 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   FrameStats stats;
   const uint64_t frame_id = next_frame_id_++;
   // Segmentation of this frame runs in the semantic thread while ORB features are extracted here.
-  if (semantic_) semantic_->submit(frame_id, std::make_shared<const cv::Mat>(bgr), image_name);
+  // Messages to other threads own their pixels (a copy): cv::Mat's reference count is invisible to
+  // ThreadSanitizer, and the caller may reuse its buffers.
+  if (semantic_) semantic_->submit(frame_id, std::make_shared<const cv::Mat>(bgr.clone()), image_name);
 
   cv::Mat gray;
   cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
@@ -203,9 +205,9 @@ void SlamSystem::pushDenseKeyframe(const map::Keyframe* kf, const map::Frame& fr
   auto dense_kf = std::make_shared<dense::DenseKeyframe>();
   dense_kf->keyframe_id = kf->id;
   dense_kf->timestamp = frame.timestamp;
-  dense_kf->bgr = bgr;
-  dense_kf->depth = frame.depth;
-  dense_kf->labels = labels;
+  dense_kf->bgr = bgr.clone();  // the message owns its pixels (see processFrame)
+  dense_kf->depth = frame.depth.clone();
+  dense_kf->labels = labels.clone();
   dense_kf->T_w_c = frame.T_c_w.inverse();
   // Left out of the dense map: the semantic mask (semantic/full) and the surroundings of every
   // feature the depth checks found dynamic.
