@@ -76,7 +76,6 @@ void DynamicOptions::validate() const {
   requireInRange(s, "stage2_keyframes", stage2_keyframes, 1, 50);
   requireInRange(s, "stage1_min_interval_s", stage1_min_interval_s, 0.0, 10.0);
   requireInRange(s, "stage1_max_reprojection_px", stage1_max_reprojection_px, 0.1, 1000.0);
-  requireInRange(s, "refill_static_share", refill_static_share, 0.0, 1.0);
 }
 
 void SemanticOptions::validate() const {

@@ -123,11 +123,6 @@ struct DynamicOptions {
   // A masked feature whose matched 3-D point re-projects farther than this (pixels at level 0,
   // scaled by its level) from it has moved in the image: dynamic, whatever its depth says.
   double stage1_max_reprojection_px = 4.0;
-  // People filling the view leave few features on the static scene. When fewer than this share
-  // of orb.num_features lie outside the mask, features are extracted again outside it so the
-  // static scene keeps the whole budget (the masked ones stay for stage 1). 0 disables; off by
-  // default until it shows a gain (Bonn crowd runs so far: no better than plain 2000 features).
-  double refill_static_share = 0.0;
 
   static constexpr const char* kSection = "dynamic";
   template <class V> void fields(V& v) {
@@ -136,7 +131,7 @@ struct DynamicOptions {
     v("stage1_max_descriptor_distance", stage1_max_descriptor_distance);
     v("stage1_match_ratio", stage1_match_ratio); v("stage1_unmatched_policy", stage1_unmatched_policy);
     v("stage2_keyframes", stage2_keyframes); v("stage1_min_interval_s", stage1_min_interval_s);
-    v("stage1_max_reprojection_px", stage1_max_reprojection_px); v("refill_static_share", refill_static_share);
+    v("stage1_max_reprojection_px", stage1_max_reprojection_px);
   }
   void validate() const;
 };

@@ -137,8 +137,7 @@ OrbExtractor::OrbExtractor(const OrbOptions& options) : options_(options) {
         static_cast<int>(std::floor(std::sqrt(double(kOrientationRadius * kOrientationRadius - dy * dy)))));
 }
 
-void OrbExtractor::extract(const cv::Mat& gray, std::vector<cv::KeyPoint>& keypoints, cv::Mat& descriptors,
-                           const cv::Mat& exclude) const {
+void OrbExtractor::extract(const cv::Mat& gray, std::vector<cv::KeyPoint>& keypoints, cv::Mat& descriptors) const {
   keypoints.clear();
   if (gray.empty() || gray.type() != CV_8UC1) {
     throw InputError("OrbExtractor::extract: expected a non-empty 8-bit single-channel (CV_8UC1) image, got " +
@@ -159,21 +158,6 @@ void OrbExtractor::extract(const cv::Mat& gray, std::vector<cv::KeyPoint>& keypo
   std::vector<LevelCandidates> candidates(levels);
   for (int l = 0; l < levels; ++l)
     if (!images[l].empty()) candidates[l] = detectLevel(images[l], options_);
-  if (!exclude.empty()) {
-    if (exclude.size() != gray.size() || exclude.type() != CV_8UC1)
-      throw InputError("OrbExtractor::extract: the exclude mask must be CV_8UC1 and the image's size");
-    for (int l = 0; l < levels; ++l) {
-      auto& found = candidates[l].keypoints;
-      const double s = pyramid_.scale[l];
-      found.erase(std::remove_if(found.begin(), found.end(),
-                                 [&](const cv::KeyPoint& kp) {
-                                   const int x = std::clamp(cvRound(kp.pt.x * s), 0, exclude.cols - 1);
-                                   const int y = std::clamp(cvRound(kp.pt.y * s), 0, exclude.rows - 1);
-                                   return exclude.at<uint8_t>(y, x) != 0;
-                                 }),
-                  found.end());
-    }
-  }
   const std::vector<int> quota = levelQuotas(features_per_level_, candidates);
 
   // Selected keypoints in level coordinates, level by level; class_id = output row.

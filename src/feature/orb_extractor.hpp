@@ -21,10 +21,7 @@ class OrbExtractor {
   // [0, 360), size = patch size (31) * level scale, response = FAST score.
   // descriptors: N x 32 CV_8U, row i belongs to keypoints[i].
   // Const and reentrant: several threads may call extract() on one extractor at once.
-  // exclude (optional, CV_8U, image size): corners where it is nonzero are not candidates, so the
-  // whole budget spreads over the rest of the image (used to re-extract outside a dynamic mask).
-  void extract(const cv::Mat& gray, std::vector<cv::KeyPoint>& keypoints, cv::Mat& descriptors,
-               const cv::Mat& exclude = cv::Mat()) const;
+  void extract(const cv::Mat& gray, std::vector<cv::KeyPoint>& keypoints, cv::Mat& descriptors) const;
 
   const ScalePyramid& pyramid() const { return pyramid_; }
   const OrbOptions& options() const { return options_; }

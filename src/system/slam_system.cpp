@@ -124,11 +124,6 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   stats.extraction_ms = millisecondsSince(start);
 
   frame.dynamic_mask = maskFor(frame_id, depth, stats);
-  if (!frame.dynamic_mask.empty() && options_.dynamic.refill_static_share > 0) {
-    const auto refill_start = std::chrono::steady_clock::now();
-    refillStaticFeatures(frame, gray, depth, stats);
-    stats.extraction_ms += millisecondsSince(refill_start);
-  }
   if (!frame.dynamic_mask.empty()) {
     const std::vector<uint8_t> in_mask = dynamic::featuresInMask(*frame.features, frame.dynamic_mask);
     const bool semantic_only = options_.dynamic.mode == "semantic";
@@ -172,32 +167,6 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   }
   stats.total_ms = millisecondsSince(start);
   frames_.push_back(stats);
-}
-
-void SlamSystem::refillStaticFeatures(map::Frame& frame, const cv::Mat& gray, const cv::Mat& depth,
-                                      FrameStats& stats) {
-  const map::FeatureSet& first = *frame.features;
-  const std::vector<uint8_t> in_mask = dynamic::featuresInMask(first, frame.dynamic_mask);
-  const auto outside = std::count(in_mask.begin(), in_mask.end(), 0);
-  if (outside >= options_.dynamic.refill_static_share * options_.orb.num_features) return;
-  // Masked features stay (stage 1 may keep a person sitting still); the static scene gets a
-  // fresh, evenly spread set of its own.
-  std::vector<cv::KeyPoint> keypoints;
-  cv::Mat descriptors;
-  extractor_.extract(gray, keypoints, descriptors, frame.dynamic_mask);
-  for (size_t i = 0; i < first.size(); ++i) {
-    if (!in_mask[i]) continue;
-    keypoints.push_back(first.keypoints[i]);
-    descriptors.push_back(first.descriptors.row(static_cast<int>(i)));
-  }
-  auto features = map::buildFeatureSet(std::move(keypoints), std::move(descriptors), camera_, depth, pyramid_,
-                                       options_.tracking.min_depth, options_.tracking.max_depth);
-  cv::Mat mask = frame.dynamic_mask;
-  frame = map::Frame(frame.id, frame.timestamp, frame.image_name, std::move(features));
-  frame.depth = depth;
-  frame.dynamic_mask = mask;
-  stats.features = static_cast<int>(frame.features->size());
-  stats.refilled = true;
 }
 
 void SlamSystem::pushDenseKeyframe(const map::Keyframe* kf, const map::Frame& frame, const cv::Mat& bgr,
@@ -250,7 +219,7 @@ nlohmann::json SlamSystem::statistics() const {
   std::vector<double> extraction, tracking, tracking_thread, total, mask_wait, segmentation;
   nlohmann::json per_frame = nlohmann::json::array();
   long in_mask = 0, semantic_removed = 0, stage1_checked = 0, stage1_removed = 0, stage2_removed = 0;
-  size_t fresh_masks = 0, carried_masks = 0, no_mask = 0, refilled = 0;
+  size_t fresh_masks = 0, carried_masks = 0, no_mask = 0;
   for (const FrameStats& f : frames_) {
     extraction.push_back(f.extraction_ms);
     tracking.push_back(f.tracking_ms);
@@ -264,7 +233,6 @@ nlohmann::json SlamSystem::statistics() const {
     stage1_checked += f.stage1_checked;
     stage1_removed += f.stage1_removed;
     stage2_removed += f.stage2_removed;
-    if (f.refilled) ++refilled;
     if (f.mask_age == 0) ++fresh_masks;
     else if (f.mask_age > 0) ++carried_masks;
     else ++no_mask;
@@ -273,7 +241,7 @@ nlohmann::json SlamSystem::statistics() const {
                          {"stage2_removed", f.stage2_removed}, {"mask_age", f.mask_age},
                          {"fresh_mask", f.mask_age == 0}, {"segmentation_ms", f.segmentation_ms},
                          {"tracking_ms", f.extraction_ms + f.tracking_ms}, {"tracked", f.tracked},
-                         {"keyframe", f.keyframe}, {"refilled", f.refilled}});
+                         {"keyframe", f.keyframe}});
   }
   size_t tracked = 0;
   for (const auto& r : tracker_.records())
@@ -296,8 +264,7 @@ nlohmann::json SlamSystem::statistics() const {
                   {"removed_stage2", stage2_removed},
                   {"frames_with_fresh_mask", fresh_masks},
                   {"frames_with_carried_mask", carried_masks},
-                  {"frames_without_mask", no_mask},
-                  {"frames_refilled", refilled}};
+                  {"frames_without_mask", no_mask}};
   const auto& ms = mapper_.stats();
   j["local_mapping"] = {{"keyframes_processed", ms.keyframes_processed},
                         {"points_triangulated", ms.points_triangulated},

@@ -50,7 +50,6 @@ struct FrameStats {
   int features = 0, in_mask = 0, semantic_removed = 0, stage1_checked = 0, stage1_removed = 0, stage2_removed = 0;
   bool tracked = false;
   bool keyframe = false;
-  bool refilled = false;     // features re-extracted outside the mask
 };
 
 class SlamSystem {
@@ -80,8 +79,6 @@ class SlamSystem {
  private:
   // The dilated mask of dynamic classes for this frame, and its provenance.
   cv::Mat maskFor(uint64_t frame_id, const cv::Mat& depth, FrameStats& stats);
-  // When the mask covers most features, extracts the static scene's budget again outside it.
-  void refillStaticFeatures(map::Frame& frame, const cv::Mat& gray, const cv::Mat& depth, FrameStats& stats);
   void pushDenseKeyframe(const map::Keyframe* kf, const map::Frame& frame, const cv::Mat& bgr,
                          const cv::Mat& labels) const;
 

@@ -124,4 +124,23 @@ inline BaScene makeBaScene(const PinholeCamera& cam, int num_keyframes, int num_
   return s;
 }
 
+// How the optimiser's outlier flags compare with the outliers a scene injected.
+struct OutlierTally {
+  int injected = 0, missed = 0, clean = 0, false_flags = 0;
+};
+template <class Observations>
+OutlierTally tallyOutliers(const Observations& observations, const std::vector<bool>& injected_outlier) {
+  OutlierTally t;
+  for (std::size_t i = 0; i < observations.size(); ++i) {
+    if (injected_outlier[i]) {
+      ++t.injected;
+      if (!observations[i].outlier) ++t.missed;
+    } else {
+      ++t.clean;
+      if (observations[i].outlier) ++t.false_flags;
+    }
+  }
+  return t;
+}
+
 }  // namespace desslam::optim::test

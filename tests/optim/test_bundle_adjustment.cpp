@@ -45,16 +45,7 @@ TEST(BundleAdjust, ConvergesToTruthAndFlagsInjectedOutliers) {
   EXPECT_LT(reached, 1.2 * floor) << "from the perturbed start " << reached << " m, from the truth " << floor << " m";
   EXPECT_LT(reached, start_point_error / 3);
 
-  int injected = 0, missed = 0, false_flags = 0, clean = 0;
-  for (std::size_t i = 0; i < s.observations.size(); ++i) {
-    if (s.injected_outlier[i]) {
-      ++injected;
-      if (!s.observations[i].outlier) ++missed;
-    } else {
-      ++clean;
-      if (s.observations[i].outlier) ++false_flags;
-    }
-  }
+  const auto [injected, missed, clean, false_flags] = test::tallyOutliers(s.observations, s.injected_outlier);
   ASSERT_GT(injected, 50);
   EXPECT_EQ(missed, 0);
   // 0.5 px noise with unit information: the 95% threshold is far out in the tail.

@@ -22,16 +22,7 @@ TEST(OptimizePose, RecoversPoseWithQuarterGrossOutliers) {
 
   EXPECT_LT(translationError(T, s.T_c_w_true), 0.002);
   EXPECT_LT(rotationErrorDeg(T, s.T_c_w_true), 0.1);
-  int injected = 0, missed = 0, false_flags = 0, clean = 0;
-  for (std::size_t i = 0; i < s.observations.size(); ++i) {
-    if (s.injected_outlier[i]) {
-      ++injected;
-      if (!s.observations[i].outlier) ++missed;
-    } else {
-      ++clean;
-      if (s.observations[i].outlier) ++false_flags;
-    }
-  }
+  const auto [injected, missed, clean, false_flags] = test::tallyOutliers(s.observations, s.injected_outlier);
   ASSERT_GT(injected, 100);
   EXPECT_EQ(missed, 0);
   // 1 px noise at the 95% threshold: about 5% of clean observations exceed it by chance.

@@ -14,9 +14,14 @@
 
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include "core/options.hpp"
+#include "core/trajectory.hpp"
+#include "io/tum_dataset.hpp"
 #include "sim/camera_path.hpp"
 #include "sim/synthetic_scene.hpp"
+#include "system/slam_system.hpp"
 
 namespace desslam::test {
 
@@ -103,5 +108,25 @@ inline CommandResult runCommand(const std::string& command, const std::filesyste
 #ifdef DESSLAM_BINARY
 inline std::string desslamBinary() { return DESSLAM_BINARY; }
 #endif
+
+// Runs the whole sequence through system::SlamSystem in deterministic mode.
+struct RunResult {
+  Trajectory camera;
+  Trajectory keyframes;
+  nlohmann::json statistics;
+  size_t frames = 0;
+};
+
+inline RunResult runOver(const io::TumSequence& sequence, const SystemOptions& options) {
+  system::RunSettings settings;
+  settings.deterministic = true;
+  system::SlamSystem slam(options, settings);
+  for (size_t i = 0; i < sequence.size(); ++i) {
+    const io::RgbdImage image = sequence.load(i, options.camera);
+    slam.processFrame(image.timestamp, image.bgr, image.depth, sequence.record(i).rgb_path.filename().string());
+  }
+  slam.finish();
+  return {slam.cameraTrajectory(), slam.keyframeTrajectory(), slam.statistics(), slam.framesProcessed()};
+}
 
 }  // namespace desslam::test

@@ -8,7 +8,7 @@
 #include "io/config.hpp"
 #include "io/tum_dataset.hpp"
 #include "support/shared_data.hpp"
-#include "system/slam_system.hpp"
+#include "system_support.hpp"
 
 namespace desslam {
 namespace {
@@ -21,15 +21,7 @@ TEST(SystemClip, Fr1XyzIsTrackedWithinTwoCentimetres) {
   ASSERT_TRUE(sequence.groundTruth().has_value()) << clip << " lacks groundtruth.txt";
   ASSERT_GE(sequence.size(), 90u);
 
-  system::RunSettings settings;
-  settings.deterministic = true;
-  system::SlamSystem slam(options, settings);
-  for (size_t i = 0; i < sequence.size(); ++i) {
-    const io::RgbdImage image = sequence.load(i, options.camera);
-    slam.processFrame(image.timestamp, image.bgr, image.depth, sequence.record(i).rgb_path.filename().string());
-  }
-  slam.finish();
-  const Trajectory trajectory = slam.cameraTrajectory();
+  const Trajectory trajectory = test::runOver(sequence, options).camera;
 
   // "All paired frames tracked": every RGB-D pair that has a ground-truth pose got an estimate.
   Trajectory frames;

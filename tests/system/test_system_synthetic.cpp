@@ -15,24 +15,6 @@
 namespace desslam {
 namespace {
 
-struct RunResult {
-  Trajectory camera;
-  Trajectory keyframes;
-  nlohmann::json statistics;
-  size_t frames = 0;
-};
-
-RunResult runOver(const io::TumSequence& sequence, const SystemOptions& options) {
-  system::RunSettings settings;
-  settings.deterministic = true;
-  system::SlamSystem slam(options, settings);
-  for (size_t i = 0; i < sequence.size(); ++i) {
-    const io::RgbdImage image = sequence.load(i, options.camera);
-    slam.processFrame(image.timestamp, image.bgr, image.depth, sequence.record(i).rgb_path.filename().string());
-  }
-  slam.finish();
-  return {slam.cameraTrajectory(), slam.keyframeTrajectory(), slam.statistics(), slam.framesProcessed()};
-}
 
 TEST(SystemSynthetic, StaticRoomSweepIsTrackedToMillimetres) {
   constexpr int kFrames = 180;  // 6 s at 30 fps
@@ -44,7 +26,7 @@ TEST(SystemSynthetic, StaticRoomSweepIsTrackedToMillimetres) {
   ASSERT_TRUE(sequence.groundTruth().has_value());
 
   const SystemOptions options = test::syntheticSystemOptions();
-  const RunResult run = runOver(sequence, options);
+  const test::RunResult run = test::runOver(sequence, options);
   EXPECT_EQ(run.frames, static_cast<size_t>(kFrames));
 
   // >= 99 % of the frames carry a pose.
@@ -79,7 +61,7 @@ TEST(SystemSynthetic, TrajectoryFollowsTheRgbTimestamps) {
   test::TempDir dir;
   test::writeSyntheticSequence(dir.path(), kFrames);
   const io::TumSequence sequence = io::TumSequence::open(dir.path());
-  const RunResult run = runOver(sequence, test::syntheticSystemOptions());
+  const test::RunResult run = test::runOver(sequence, test::syntheticSystemOptions());
   ASSERT_FALSE(run.camera.empty());
   EXPECT_DOUBLE_EQ(run.camera.front().timestamp, sequence.record(0).rgb_timestamp);
   for (size_t i = 1; i < run.camera.size(); ++i)
