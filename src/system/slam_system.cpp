@@ -143,6 +143,8 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   stats.stage1_checked = outcome.stage1_checked;
   stats.stage1_removed = outcome.stage1_removed;
   stats.stage2_removed = outcome.stage2_removed;
+  stats.inliers = outcome.inliers;
+  stats.motion_model = outcome.used_motion_model;
 
   if (outcome.new_keyframe != nullptr) {
     stats.keyframe = true;
@@ -241,7 +243,7 @@ nlohmann::json SlamSystem::statistics() const {
                          {"stage2_removed", f.stage2_removed}, {"mask_age", f.mask_age},
                          {"fresh_mask", f.mask_age == 0}, {"segmentation_ms", f.segmentation_ms},
                          {"tracking_ms", f.extraction_ms + f.tracking_ms}, {"tracked", f.tracked},
-                         {"keyframe", f.keyframe}});
+                         {"keyframe", f.keyframe}, {"inliers", f.inliers}, {"motion_model", f.motion_model}});
   }
   size_t tracked = 0;
   for (const auto& r : tracker_.records())

@@ -50,6 +50,8 @@ struct FrameStats {
   int features = 0, in_mask = 0, semantic_removed = 0, stage1_checked = 0, stage1_removed = 0, stage2_removed = 0;
   bool tracked = false;
   bool keyframe = false;
+  int inliers = 0;            // map-point inliers after local-map tracking
+  bool motion_model = false;  // the first estimate came from the constant-velocity prediction
 };
 
 class SlamSystem {
