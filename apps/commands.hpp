@@ -11,5 +11,6 @@ namespace desslam::app {
 void registerRunCommand(CLI::App& app);   // cmd_run.cpp
 void registerEvalCommand(CLI::App& app);  // cmd_eval.cpp
 void registerVocabCommand(CLI::App& app);  // cmd_vocab.cpp
+void registerMapCheckCommand(CLI::App& app);  // cmd_mapcheck.cpp
 
 }  // namespace desslam::app

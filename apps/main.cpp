@@ -13,6 +13,7 @@ int main(int argc, char** argv) {
   desslam::app::registerRunCommand(app);
   desslam::app::registerEvalCommand(app);
   desslam::app::registerVocabCommand(app);
+  desslam::app::registerMapCheckCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -175,6 +175,8 @@ struct DenseOptions {
   int queue_capacity = 16;           // keyframes waiting for the dense mapping thread
   int render_width = 1024;           // PNG preview of the map (pixels)
   int render_height = 768;
+  // Exported voxels must have been seen by at least this many keyframes (1 = all voxels).
+  int min_observations = 1;
 
   static constexpr const char* kSection = "dense";
   template <class V> void fields(V& v) {
@@ -184,6 +186,80 @@ struct DenseOptions {
     v("octomap_resolution", octomap_resolution); v("exclude_dilation_px", exclude_dilation_px);
     v("depth_edge_ratio", depth_edge_ratio); v("queue_capacity", queue_capacity);
     v("render_width", render_width); v("render_height", render_height);
+    v("min_observations", min_observations);
+  }
+  void validate() const;
+};
+
+// Relocalisation when tracking is lost (tracking/relocaliser.hpp): bag-of-words candidates from
+// the keyframe database, descriptor matching within vocabulary nodes, PnP-RANSAC, pose-only
+// optimisation, guided search by projection.
+struct RelocalisationOptions {
+  bool enabled = true;
+  // Bag-of-words vocabulary file; empty: vocab/desslam_orb_k10l5.bin of the project, looked for
+  // by loop::resolveVocabularyPath (beside the working directory or the program).
+  std::string vocabulary;
+  int direct_index_level = 2;        // vocabulary tree level (root = 0) grouping features for matching
+  int max_candidates = 10;           // best-scoring keyframes (or covisibility groups) tried
+  bool group_covisible = true;       // rank candidates by the score of their covisibility group
+  double group_score_ratio = 0.75;   // groups scoring below this share of the best are left out
+  int max_descriptor_distance = 50;  // Hamming distance accepted for a descriptor match
+  double match_ratio = 0.75;         // best / second-best distance must be below this
+  int min_matches = 15;              // descriptor matches a candidate needs before PnP
+  int ransac_iterations = 300;
+  double ransac_reprojection_px = 4.0;  // inlier threshold of PnP-RANSAC (undistorted pixels)
+  double ransac_confidence = 0.99;
+  int min_pnp_inliers = 15;          // PnP-RANSAC inliers needed to go on
+  int min_inliers = 50;              // pose-optimisation inliers (after guided search) to accept
+  double search_radius_px = 10.0;    // guided search window around projected covisible points
+
+  static constexpr const char* kSection = "relocalisation";
+  template <class V> void fields(V& v) {
+    v("enabled", enabled); v("vocabulary", vocabulary); v("direct_index_level", direct_index_level);
+    v("max_candidates", max_candidates); v("group_covisible", group_covisible);
+    v("group_score_ratio", group_score_ratio); v("max_descriptor_distance", max_descriptor_distance);
+    v("match_ratio", match_ratio); v("min_matches", min_matches); v("ransac_iterations", ransac_iterations);
+    v("ransac_reprojection_px", ransac_reprojection_px); v("ransac_confidence", ransac_confidence);
+    v("min_pnp_inliers", min_pnp_inliers); v("min_inliers", min_inliers); v("search_radius_px", search_radius_px);
+  }
+  void validate() const;
+};
+
+// Loop closing (loop/loop_closer.hpp): place recognition over the keyframe BoW database, a rigid
+// SE(3) from 3-D-3-D matches (depth makes scale observable), pose-graph optimisation over the
+// essential graph, then a global bundle adjustment in its own thread.
+struct LoopOptions {
+  bool enabled = true;
+  int min_keyframes_between_loops = 10;  // after a closed loop (and at the map's start) no detection
+  int min_consistent_keyframes = 3;      // a candidate group must recur in this many consecutive keyframes
+  int group_size = 10;                   // a candidate's covisibility group: it and its best neighbours
+  double group_score_ratio = 0.75;       // groups below this share of the best group's score are dropped
+  int max_candidates = 3;                // consistent candidates verified geometrically per keyframe
+  int max_descriptor_distance = 50;      // Hamming; BoW-guided matching has no geometry, so strict
+  double match_ratio = 0.75;             // best / second-best descriptor distance
+  int ransac_iterations = 300;
+  // 3-D inlier distance at 1 m depth; grows with depth^2 like Kinect-type depth noise.
+  double ransac_threshold_m = 0.02;
+  int min_rigid_inliers = 20;            // RANSAC inliers to accept a candidate
+  double projection_radius_px = 10.0;    // guided search of the loop group's points (level 0 pixels)
+  int min_loop_matches = 40;             // matches after the guided search to close the loop
+  int strong_covisibility_weight = 100;  // covisibility edges in the essential graph
+  int pose_graph_iterations = 20;
+  bool global_ba = true;                 // global BA in its own thread after each closed loop
+  int global_ba_iterations = 10;
+  int queue_capacity = 64;               // keyframes waiting; when full the oldest is dropped
+
+  static constexpr const char* kSection = "loop";
+  template <class V> void fields(V& v) {
+    v("enabled", enabled); v("min_keyframes_between_loops", min_keyframes_between_loops);
+    v("min_consistent_keyframes", min_consistent_keyframes); v("group_size", group_size);
+    v("group_score_ratio", group_score_ratio); v("max_candidates", max_candidates);
+    v("max_descriptor_distance", max_descriptor_distance); v("match_ratio", match_ratio);
+    v("ransac_iterations", ransac_iterations); v("ransac_threshold_m", ransac_threshold_m);
+    v("min_rigid_inliers", min_rigid_inliers); v("projection_radius_px", projection_radius_px);
+    v("min_loop_matches", min_loop_matches); v("strong_covisibility_weight", strong_covisibility_weight);
+    v("pose_graph_iterations", pose_graph_iterations); v("global_ba", global_ba);
+    v("global_ba_iterations", global_ba_iterations); v("queue_capacity", queue_capacity);
   }
   void validate() const;
 };
@@ -197,9 +273,11 @@ struct SystemOptions {
   DynamicOptions dynamic;
   SemanticOptions semantic;
   DenseOptions dense;
+  LoopOptions loop;
+  RelocalisationOptions relocalisation;
 
   template <class F> void sections(F&& f) {
-    f(camera); f(orb); f(tracking); f(mapping); f(dynamic); f(semantic); f(dense);
+    f(camera); f(orb); f(tracking); f(mapping); f(dynamic); f(semantic); f(dense); f(loop); f(relocalisation);
   }
   void validate() const;
 };

@@ -36,8 +36,23 @@ struct KeyframeCloud {
   size_t size() const { return points_c.size(); }
 };
 
-// One keyframe's cloud in the WORLD frame with the camera centre it was seen from: what OctoMap
-// ray insertion and the free-space check need (the fused cloud has lost both).
+// The exported map: one entry per world voxel, in the world frame with the newest poses.
+// first_seen is the timestamp of the keyframe that first saw the voxel (the map check compares
+// it with later keyframes); observations counts the keyframes merged into it.
+struct DenseCloud {
+  std::vector<Vec3> points_w;
+  std::vector<std::array<uint8_t, 3>> rgb;
+  std::vector<uint8_t> labels;
+  std::vector<Timestamp> first_seen;
+  std::vector<uint32_t> observations;
+
+  size_t size() const { return points_w.size(); }
+  // Keeps the entries whose index is listed (ascending), in that order.
+  void keepOnly(const std::vector<size_t>& indices);
+};
+
+// Points in the WORLD frame with the camera centre they were seen from: what OctoMap ray
+// insertion needs. DenseMap::worldScans() gives one per anchor keyframe (the voxels it created).
 struct WorldScan {
   uint64_t keyframe_id = 0;
   Timestamp timestamp = 0;

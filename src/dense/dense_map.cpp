@@ -1,8 +1,47 @@
 #include "dense/dense_map.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
 #include <open3d/geometry/PointCloud.h>
 
 namespace desslam::dense {
+
+namespace {
+
+// 21 bits per axis (offset binary): +-2^20 voxels, +-10 km at 1 cm.
+constexpr int64_t kKeyOffset = int64_t{1} << 20;
+constexpr uint64_t kKeyMask = (uint64_t{1} << 21) - 1;
+
+uint64_t packKey(int64_t x, int64_t y, int64_t z) {
+  return (static_cast<uint64_t>(x + kKeyOffset) & kKeyMask) | ((static_cast<uint64_t>(y + kKeyOffset) & kKeyMask) << 21) |
+         ((static_cast<uint64_t>(z + kKeyOffset) & kKeyMask) << 42);
+}
+
+// A rigid transform as a matrix: millions of points are moved, quaternion rotation is slower.
+struct Rigid {
+  Mat3 R;
+  Vec3 t;
+  explicit Rigid(const SE3& T) : R(T.rotation()), t(T.translation()) {}
+  Vec3 operator*(const Vec3& p) const { return R * p + t; }
+};
+
+// Boyer-Moore majority vote state, mergeable: (candidate, margin).
+void vote(uint8_t& candidate, uint8_t& margin, uint8_t label, unsigned weight) {
+  if (label == candidate) {
+    margin = static_cast<uint8_t>(std::min(255u, margin + weight));
+  } else if (margin >= weight) {
+    margin = static_cast<uint8_t>(margin - weight);
+  } else {
+    candidate = label;
+    margin = static_cast<uint8_t>(std::min(255u, weight - margin));
+  }
+}
+
+uint8_t toByte(double v) { return static_cast<uint8_t>(std::clamp(std::lround(v), 0L, 255L)); }
+
+}  // namespace
 
 std::array<uint8_t, 3> semanticColour(uint8_t label) {
   std::array<uint8_t, 3> rgb{0, 0, 0};
@@ -15,41 +54,309 @@ std::array<uint8_t, 3> semanticColour(uint8_t label) {
   return rgb;
 }
 
+void DenseCloud::keepOnly(const std::vector<size_t>& indices) {
+  auto pick = [&](auto& values) {
+    std::remove_reference_t<decltype(values)> kept;
+    kept.reserve(indices.size());
+    for (size_t i : indices) kept.push_back(values[i]);
+    values = std::move(kept);
+  };
+  pick(points_w);
+  pick(rgb);
+  pick(labels);
+  pick(first_seen);
+  pick(observations);
+}
+
 DenseMap::DenseMap(const DenseOptions& options, const PinholeCamera& camera)
     : options_(options), back_projector_(std::make_shared<const BackProjector>(options, camera)) {}
 
-void DenseMap::addKeyframe(const DenseKeyframe& keyframe) {
-  auto cloud = std::make_shared<const KeyframeCloud>(voxelDownsample((*back_projector_)(keyframe), options_.voxel_size));
-  addCloud(std::move(cloud), keyframe.T_w_c);
+uint64_t DenseMap::keyOf(const Vec3& p_w) const {
+  const double inv = 1.0 / options_.voxel_size;
+  return packKey(static_cast<int64_t>(std::floor(p_w.x() * inv)), static_cast<int64_t>(std::floor(p_w.y() * inv)),
+                 static_cast<int64_t>(std::floor(p_w.z() * inv)));
 }
 
-void DenseMap::addCloud(std::shared_ptr<const KeyframeCloud> cloud, const SE3& T_w_c) {
-  const uint64_t id = cloud->keyframe_id;
-  entries_[id] = Entry{std::move(cloud), T_w_c};
+uint32_t DenseMap::registerKeyframe(uint64_t id, Timestamp timestamp, const SE3& T_w_c) {
+  if (const auto it = keyframe_index_.find(id); it != keyframe_index_.end()) {
+    // Seen before: a new observation with a new pose; the anchored voxels must be re-keyed
+    // with that pose first, so treat it as a pose update.
+    updatePoses({{id, T_w_c}});
+    return it->second;
+  }
+  const auto index = static_cast<uint32_t>(keyframes_.size());
+  KeyframeRecord record;
+  record.id = id;
+  record.timestamp = timestamp;
+  record.T_w_c = T_w_c;
+  record.T_w_c_keyed = T_w_c;
+  keyframes_.push_back(record);
+  keyframe_index_.emplace(id, index);
+  return index;
 }
 
-void DenseMap::removeKeyframe(uint64_t keyframe_id) { entries_.erase(keyframe_id); }
+void DenseMap::addKeyframe(const DenseKeyframe& keyframe) { integrate((*back_projector_)(keyframe), keyframe.T_w_c); }
 
-void DenseMap::updatePoses(const PoseMap& T_w_c_by_id) {
-  for (const auto& [id, pose] : T_w_c_by_id) {
-    if (auto it = entries_.find(id); it != entries_.end()) it->second.T_w_c = pose;
+void DenseMap::integrate(const KeyframeCloud& cloud, const SE3& T_w_c) {
+  const uint32_t self = registerKeyframe(cloud.keyframe_id, cloud.timestamp, T_w_c);
+  const Rigid to_world(T_w_c);
+
+  // 1. This keyframe's points grouped by world voxel: one observation per voxel and keyframe.
+  struct Group {
+    Vec3 sum_w = Vec3::Zero();
+    Vec3 sum_rgb = Vec3::Zero();
+    uint32_t count = 0;
+    uint8_t label = 0, label_votes = 0;
+  };
+  std::unordered_map<uint64_t, uint32_t> group_of;
+  group_of.reserve(cloud.size());
+  std::vector<Group> groups;
+  std::vector<uint64_t> group_keys;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    const Vec3 p_w = to_world * cloud.points_c[i].cast<double>();
+    const uint64_t key = keyOf(p_w);
+    auto [it, inserted] = group_of.try_emplace(key, static_cast<uint32_t>(groups.size()));
+    if (inserted) {
+      groups.emplace_back();
+      group_keys.push_back(key);
+    }
+    Group& g = groups[it->second];
+    g.sum_w += p_w;
+    g.sum_rgb += Vec3(cloud.rgb[i][0], cloud.rgb[i][1], cloud.rgb[i][2]);
+    ++g.count;
+    vote(g.label, g.label_votes, cloud.labels.empty() ? 0 : cloud.labels[i], 1);
+  }
+
+  // 2. Merge into existing voxels (in their anchor's frame, anchor's current pose) or create.
+  const Rigid to_camera(T_w_c.inverse());
+  std::unordered_map<uint32_t, Rigid> to_anchor;  // anchor index -> T_a_w, built on demand
+  voxel_index_.reserve(voxel_index_.size() + groups.size());
+  KeyframeRecord& record = keyframes_[self];
+  for (size_t g = 0; g < groups.size(); ++g) {
+    const Group& group = groups[g];
+    const Vec3 mean_w = group.sum_w / group.count;
+    const Vec3 mean_rgb = group.sum_rgb / group.count;
+    auto [it, inserted] = voxel_index_.try_emplace(group_keys[g], static_cast<uint32_t>(voxels_.size()));
+    if (inserted) {
+      Voxel voxel;
+      voxel.key = group_keys[g];
+      const Vec3 p_c = to_camera * mean_w;
+      voxel.p_anchor = p_c.cast<float>();
+      voxel.anchor = self;
+      voxel.observations = 1;
+      voxel.rgb = {toByte(mean_rgb.x()), toByte(mean_rgb.y()), toByte(mean_rgb.z())};
+      voxel.label = group.label;
+      voxel.label_votes = 1;
+      voxels_.push_back(voxel);
+      record.max_range = std::max(record.max_range, static_cast<float>(p_c.norm()));
+      ++record.anchored;
+      continue;
+    }
+    Voxel& voxel = voxels_[it->second];
+    auto anchor_it = to_anchor.find(voxel.anchor);
+    if (anchor_it == to_anchor.end())
+      anchor_it = to_anchor.emplace(voxel.anchor, Rigid(keyframes_[voxel.anchor].T_w_c.inverse())).first;
+    const Vec3 p_a = anchor_it->second * mean_w;
+    const double w = 1.0 / (voxel.observations + 1.0);
+    voxel.p_anchor = (voxel.p_anchor.cast<double>() * (1 - w) + p_a * w).cast<float>();
+    for (int c = 0; c < 3; ++c) voxel.rgb[c] = toByte(voxel.rgb[c] * (1 - w) + mean_rgb[c] * w);
+    vote(voxel.label, voxel.label_votes, group.label, 1);
+    ++voxel.observations;
   }
 }
 
-const SE3& DenseMap::poseOf(uint64_t id, const Entry& entry, const PoseMap& T_w_c_by_id) const {
-  const auto it = T_w_c_by_id.find(id);
-  return it != T_w_c_by_id.end() ? it->second : entry.T_w_c;
+void DenseMap::removeKeyframe(uint64_t keyframe_id) {
+  if (const auto it = keyframe_index_.find(keyframe_id); it != keyframe_index_.end())
+    keyframes_[it->second].culled = true;
 }
 
-size_t DenseMap::storedPointCount() const {
-  size_t n = 0;
-  for (const auto& [id, entry] : entries_) n += entry.cloud->size();
-  return n;
+bool DenseMap::isCulled(uint64_t keyframe_id) const {
+  const auto it = keyframe_index_.find(keyframe_id);
+  return it != keyframe_index_.end() && keyframes_[it->second].culled;
 }
 
-PoseMap DenseMap::poses() const {
-  PoseMap out;
-  for (const auto& [id, entry] : entries_) out.emplace(id, entry.T_w_c);
+void DenseMap::updatePoses(const PoseMap& T_w_c_by_id) {
+  bool stale = false;
+  for (const auto& [id, pose] : T_w_c_by_id) {
+    const auto it = keyframe_index_.find(id);
+    if (it == keyframe_index_.end()) continue;
+    KeyframeRecord& record = keyframes_[it->second];
+    record.T_w_c = pose;
+    if (record.anchored == 0) {
+      record.T_w_c_keyed = pose;
+      continue;
+    }
+    // Farthest any anchored point may have moved: |dt| + angle * range.
+    const SE3 delta = pose * record.T_w_c_keyed.inverse();
+    const double moved = (pose.translation() - record.T_w_c_keyed.translation()).norm() +
+                         delta.rotationAngle() * record.max_range;
+    stale = stale || moved > 0.5 * options_.voxel_size;
+  }
+  if (stale) rekeyMovedAnchors();
+}
+
+std::vector<SE3> DenseMap::anchorPoses(const PoseMap& T_w_c_by_id) const {
+  std::vector<SE3> poses;
+  poses.reserve(keyframes_.size());
+  for (const KeyframeRecord& record : keyframes_) {
+    const auto it = T_w_c_by_id.find(record.id);
+    poses.push_back(it != T_w_c_by_id.end() ? it->second : record.T_w_c);
+  }
+  return poses;
+}
+
+Vec3 DenseMap::worldPoint(const Voxel& voxel, const std::vector<SE3>& T_w_anchor) const {
+  return T_w_anchor[voxel.anchor] * voxel.p_anchor.cast<double>();
+}
+
+void DenseMap::mergeVoxel(Voxel& into, const Voxel& from, const std::vector<SE3>& T_w_anchor) const {
+  const Vec3 p_into = T_w_anchor[into.anchor].inverse() * worldPoint(from, T_w_anchor);
+  const double total = static_cast<double>(into.observations) + from.observations;
+  const double w = from.observations / total;
+  into.p_anchor = (into.p_anchor.cast<double>() * (1 - w) + p_into * w).cast<float>();
+  for (int c = 0; c < 3; ++c) into.rgb[c] = toByte(into.rgb[c] * (1 - w) + from.rgb[c] * w);
+  vote(into.label, into.label_votes, from.label, from.label_votes);
+  into.observations += from.observations;
+}
+
+void DenseMap::rekeyMovedAnchors() {
+  // Which anchors moved enough to matter (same bound as in updatePoses()).
+  std::vector<uint8_t> moved(keyframes_.size(), 0);
+  for (size_t k = 0; k < keyframes_.size(); ++k) {
+    const KeyframeRecord& r = keyframes_[k];
+    const SE3 delta = r.T_w_c * r.T_w_c_keyed.inverse();
+    const double bound = (r.T_w_c.translation() - r.T_w_c_keyed.translation()).norm() + delta.rotationAngle() * r.max_range;
+    moved[k] = r.anchored > 0 && bound > 0.5 * options_.voxel_size ? 1 : 0;
+  }
+  const std::vector<SE3> poses = anchorPoses({});
+  std::vector<Rigid> to_world;
+  to_world.reserve(poses.size());
+  for (const SE3& T : poses) to_world.emplace_back(T);
+
+  // Take the moved voxels out of the index, then put them back under their new keys; a voxel
+  // landing on an occupied key is merged into the one with the older anchor (first seen).
+  std::vector<uint32_t> moving;
+  for (uint32_t i = 0; i < voxels_.size(); ++i) {
+    if (!moved[voxels_[i].anchor]) continue;
+    moving.push_back(i);
+    const auto it = voxel_index_.find(voxels_[i].key);
+    if (it != voxel_index_.end() && it->second == i) voxel_index_.erase(it);
+  }
+  std::vector<uint32_t> dead;
+  for (uint32_t i : moving) {
+    Voxel& voxel = voxels_[i];
+    voxel.key = keyOf(to_world[voxel.anchor] * voxel.p_anchor.cast<double>());
+    auto [it, inserted] = voxel_index_.try_emplace(voxel.key, i);
+    if (inserted) continue;
+    Voxel& other = voxels_[it->second];
+    if (keyframes_[voxel.anchor].timestamp < keyframes_[other.anchor].timestamp) {
+      mergeVoxel(voxel, other, poses);
+      dead.push_back(it->second);
+      it->second = i;
+    } else {
+      mergeVoxel(other, voxel, poses);
+      dead.push_back(i);
+    }
+  }
+  // Remove merged voxels: swap with the last one, highest index first so the last is alive.
+  std::sort(dead.begin(), dead.end(), std::greater<>());
+  for (uint32_t i : dead) {
+    --keyframes_[voxels_[i].anchor].anchored;
+    const auto last = static_cast<uint32_t>(voxels_.size() - 1);
+    if (i != last) {
+      voxels_[i] = voxels_[last];
+      voxel_index_[voxels_[i].key] = i;
+    }
+    voxels_.pop_back();
+  }
+  for (size_t k = 0; k < keyframes_.size(); ++k)
+    if (moved[k]) keyframes_[k].T_w_c_keyed = keyframes_[k].T_w_c;
+  ++rekeys_;
+  voxels_rekeyed_ += moving.size();
+  voxels_merged_ += dead.size();
+}
+
+DenseCloud DenseMap::extract(const PoseMap& T_w_c_by_id) const {
+  const std::vector<SE3> poses = anchorPoses(T_w_c_by_id);
+  std::vector<Rigid> to_world;
+  to_world.reserve(poses.size());
+  for (const SE3& T : poses) to_world.emplace_back(T);
+
+  struct Merged {
+    uint64_t key;
+    Vec3 sum_w = Vec3::Zero();
+    Vec3 sum_rgb = Vec3::Zero();
+    uint32_t observations = 0;
+    Timestamp first_seen = 0;
+    uint8_t label = 0, label_votes = 0;
+  };
+  std::vector<Merged> merged;
+  merged.reserve(voxels_.size());
+  std::unordered_map<uint64_t, uint32_t> index;
+  index.reserve(voxels_.size());
+  for (const Voxel& voxel : voxels_) {
+    const Vec3 p_w = to_world[voxel.anchor] * voxel.p_anchor.cast<double>();
+    const uint64_t key = keyOf(p_w);
+    auto [it, inserted] = index.try_emplace(key, static_cast<uint32_t>(merged.size()));
+    if (inserted) {
+      merged.push_back(Merged{key});
+      merged.back().first_seen = keyframes_[voxel.anchor].timestamp;
+    }
+    Merged& m = merged[it->second];
+    m.sum_w += p_w * voxel.observations;
+    m.sum_rgb += Vec3(voxel.rgb[0], voxel.rgb[1], voxel.rgb[2]) * voxel.observations;
+    m.observations += voxel.observations;
+    m.first_seen = std::min(m.first_seen, keyframes_[voxel.anchor].timestamp);
+    vote(m.label, m.label_votes, voxel.label, std::max<unsigned>(1, voxel.label_votes));
+  }
+  std::sort(merged.begin(), merged.end(), [](const Merged& a, const Merged& b) { return a.key < b.key; });
+
+  DenseCloud out;
+  for (const Merged& m : merged) {
+    if (m.observations < static_cast<uint32_t>(options_.min_observations)) continue;
+    out.points_w.push_back(m.sum_w / m.observations);
+    const Vec3 rgb = m.sum_rgb / m.observations;
+    out.rgb.push_back({toByte(rgb.x()), toByte(rgb.y()), toByte(rgb.z())});
+    out.labels.push_back(m.label);
+    out.first_seen.push_back(m.first_seen);
+    out.observations.push_back(m.observations);
+  }
+  return out;
+}
+
+void removeStatisticalOutliers(DenseCloud& cloud, const DenseOptions& options) {
+  if (options.outlier_neighbors <= 0 || cloud.size() <= static_cast<size_t>(options.outlier_neighbors)) return;
+  open3d::geometry::PointCloud points;
+  points.points_ = cloud.points_w;
+  const auto [filtered, kept] =
+      points.RemoveStatisticalOutliers(static_cast<size_t>(options.outlier_neighbors), options.outlier_std_ratio);
+  std::vector<size_t> indices = kept;
+  std::sort(indices.begin(), indices.end());
+  cloud.keepOnly(indices);
+}
+
+DenseCloud DenseMap::exportCloud(const PoseMap& T_w_c_by_id) const {
+  DenseCloud cloud = extract(T_w_c_by_id);
+  removeStatisticalOutliers(cloud, options_);
+  return cloud;
+}
+
+std::shared_ptr<open3d::geometry::PointCloud> toOpen3d(const DenseCloud& cloud, bool semantic_colour) {
+  auto out = std::make_shared<open3d::geometry::PointCloud>();
+  out->points_ = cloud.points_w;
+  out->colors_.reserve(cloud.size());
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    std::array<uint8_t, 3> rgb = cloud.rgb[i];
+    if (semantic_colour) {
+      if (cloud.labels[i] != 0) {
+        rgb = semanticColour(cloud.labels[i]);
+      } else {  // background keeps its structure, in grey, so classes stand out
+        const auto grey = static_cast<uint8_t>((rgb[0] * 30 + rgb[1] * 59 + rgb[2] * 11) / 100);
+        rgb = {grey, grey, grey};
+      }
+    }
+    out->colors_.emplace_back(rgb[0] / 255.0, rgb[1] / 255.0, rgb[2] / 255.0);
+  }
   return out;
 }
 
@@ -57,55 +364,44 @@ std::shared_ptr<open3d::geometry::PointCloud> DenseMap::fuse(bool semantic_colou
   return fuse(PoseMap{}, semantic_colour);
 }
 
-std::shared_ptr<open3d::geometry::PointCloud> DenseMap::fuse(const PoseMap& T_w_c_by_id,
-                                                             bool semantic_colour) const {
-  auto merged = std::make_shared<open3d::geometry::PointCloud>();
-  merged->points_.reserve(storedPointCount());
-  merged->colors_.reserve(storedPointCount());
-  for (const auto& [id, entry] : entries_) {
-    const SE3& T_w_c = poseOf(id, entry, T_w_c_by_id);
-    const Mat3 R = T_w_c.rotation();
-    const Vec3& t = T_w_c.translation();
-    const KeyframeCloud& cloud = *entry.cloud;
-    for (size_t i = 0; i < cloud.size(); ++i) {
-      merged->points_.push_back(R * cloud.points_c[i].cast<double>() + t);
-      std::array<uint8_t, 3> rgb = cloud.rgb[i];
-      if (semantic_colour) {
-        if (cloud.labels[i] != 0) {
-          rgb = semanticColour(cloud.labels[i]);
-        } else {  // background keeps its structure, in grey, so classes stand out
-          const auto grey = static_cast<uint8_t>((rgb[0] * 30 + rgb[1] * 59 + rgb[2] * 11) / 100);
-          rgb = {grey, grey, grey};
-        }
-      }
-      merged->colors_.emplace_back(rgb[0] / 255.0, rgb[1] / 255.0, rgb[2] / 255.0);
-    }
-  }
-  if (merged->points_.empty()) return merged;
-  auto fused = merged->VoxelDownSample(options_.voxel_size);
-  if (options_.outlier_neighbors > 0 && fused->points_.size() > static_cast<size_t>(options_.outlier_neighbors)) {
-    fused = std::get<0>(fused->RemoveStatisticalOutliers(static_cast<size_t>(options_.outlier_neighbors),
-                                                         options_.outlier_std_ratio));
-  }
-  return fused;
+std::shared_ptr<open3d::geometry::PointCloud> DenseMap::fuse(const PoseMap& T_w_c_by_id, bool semantic_colour) const {
+  return toOpen3d(exportCloud(T_w_c_by_id), semantic_colour);
 }
 
 std::vector<WorldScan> DenseMap::worldScans(const PoseMap& T_w_c_by_id) const {
-  std::vector<WorldScan> scans;
-  scans.reserve(entries_.size());
-  for (const auto& [id, entry] : entries_) {
-    const SE3& T_w_c = poseOf(id, entry, T_w_c_by_id);
-    const Mat3 R = T_w_c.rotation();
-    const Vec3& t = T_w_c.translation();
-    WorldScan scan;
-    scan.keyframe_id = id;
-    scan.timestamp = entry.cloud->timestamp;
-    scan.origin_w = t;
-    scan.points_w.reserve(entry.cloud->size());
-    for (const Eigen::Vector3f& p : entry.cloud->points_c) scan.points_w.push_back(R * p.cast<double>() + t);
-    scans.push_back(std::move(scan));
+  const std::vector<SE3> poses = anchorPoses(T_w_c_by_id);
+  std::vector<WorldScan> scans(keyframes_.size());
+  for (size_t k = 0; k < keyframes_.size(); ++k) {
+    scans[k].keyframe_id = keyframes_[k].id;
+    scans[k].timestamp = keyframes_[k].timestamp;
+    scans[k].origin_w = poses[k].translation();
+    scans[k].points_w.reserve(keyframes_[k].anchored);
   }
+  std::vector<Rigid> to_world;
+  to_world.reserve(poses.size());
+  for (const SE3& T : poses) to_world.emplace_back(T);
+  for (const Voxel& voxel : voxels_)
+    scans[voxel.anchor].points_w.push_back(to_world[voxel.anchor] * voxel.p_anchor.cast<double>());
+  std::erase_if(scans, [](const WorldScan& scan) { return scan.points_w.empty(); });
+  std::sort(scans.begin(), scans.end(), [](const WorldScan& a, const WorldScan& b) { return a.keyframe_id < b.keyframe_id; });
   return scans;
+}
+
+DenseMapStats DenseMap::stats() const {
+  DenseMapStats s;
+  s.voxels = voxels_.size();
+  s.keyframes = keyframes_.size();
+  for (const KeyframeRecord& r : keyframes_) s.culled += r.culled ? 1 : 0;
+  s.rekeys = rekeys_;
+  s.voxels_rekeyed = voxels_rekeyed_;
+  s.voxels_merged = voxels_merged_;
+  return s;
+}
+
+PoseMap DenseMap::poses() const {
+  PoseMap out;
+  for (const KeyframeRecord& r : keyframes_) out.emplace(r.id, r.T_w_c);
+  return out;
 }
 
 }  // namespace desslam::dense

@@ -1,14 +1,33 @@
-// The dense map: per-keyframe clouds kept in the camera frame, fused into one world cloud with
-// whatever poses are newest (after bundle adjustment or loop closure) when asked.
+// The dense map: a world voxel hash whose voxels remember WHERE they are in the camera frame of
+// the keyframe that created them (their anchor), so the map follows bundle adjustment and loop
+// closure without keeping any keyframe's cloud.
+//
+// Why this shape: keeping one cloud per keyframe (the first design) costs memory in proportion
+// to the number of keyframes (10-14 M points on Bonn crowd); re-integrating images needs the
+// images. Here each voxel stores ~40 bytes once, however many keyframes see it, and only a pose
+// per keyframe (~100 bytes) grows with the keyframe count.
+//  - addKeyframe(): the keyframe's points go to world with its current pose, are grouped by
+//    world voxel (one observation per voxel and keyframe), and merged into the existing voxel
+//    (expressed in the anchor's frame with the anchor's current pose: running means of point and
+//    colour, Boyer-Moore vote for the label) or create a voxel anchored at this keyframe.
+//  - updatePoses(): new poses for any keyframe ever added, culled ones included. Voxel keys
+//    were computed with the anchors' poses at the last re-key; when some anchor has moved so
+//    that one of its points may have moved more than half a voxel (|dt| + angle * range), the
+//    voxels of the moved anchors are re-keyed, and voxels that now share a key are merged.
+//  - extract()/exportCloud(): each voxel goes to world with its anchor's newest pose, one voxel
+//    downsample merges voxels that moved together (weighted by observations), then the
+//    min_observations and statistical outlier filters.
+//  - removeKeyframe(): a culled keyframe keeps its voxels (other views are merged into them) and
+//    keeps following the poses sent for it (its parent's pose times the stored relative pose).
 //
 // Not thread-safe by itself; DenseMappingThread (dense_thread.hpp) guards one with a mutex.
-// Copies are cheap (clouds are shared, immutable), which is how that thread snapshots it.
 #pragma once
 
 #include <array>
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <unordered_map>
 #include <vector>
 
 #include "core/camera.hpp"
@@ -25,50 +44,99 @@ namespace desslam::dense {
 
 using PoseMap = std::map<uint64_t, SE3>;  // keyframe id -> T_w_c
 
+struct DenseMapStats {
+  size_t voxels = 0;           // stored voxels
+  size_t keyframes = 0;        // keyframes ever added (culled included)
+  size_t culled = 0;
+  size_t rekeys = 0;           // partial re-keyings triggered by pose updates
+  size_t voxels_rekeyed = 0;   // voxels moved to a new key, summed over re-keyings
+  size_t voxels_merged = 0;    // voxels merged into another by re-keying
+};
+
 class DenseMap {
  public:
   DenseMap(const DenseOptions& options, const PinholeCamera& camera);
 
-  // Back-projects (BackProjector), voxel-downsamples at voxel_size and stores the keyframe
-  // with its pose. A keyframe id already present is replaced.
+  // Back-projects (BackProjector) and integrates the keyframe with keyframe.T_w_c.
   void addKeyframe(const DenseKeyframe& keyframe);
-  // Stores a cloud made elsewhere (the mapping thread back-projects outside its lock).
-  void addCloud(std::shared_ptr<const KeyframeCloud> cloud, const SE3& T_w_c);
-  // Culled keyframes; unknown ids are ignored.
+  // Integrates a camera-frame cloud made elsewhere (the mapping thread back-projects outside
+  // its lock) with pose T_w_c. A keyframe id seen before is integrated again (a new
+  // observation) and its pose replaced.
+  void integrate(const KeyframeCloud& cloud, const SE3& T_w_c);
+  // Culled keyframe: its voxels and pose stay (see the top of this file). Unknown ids ignored.
   void removeKeyframe(uint64_t keyframe_id);
-  // Replaces stored poses of the given ids; ids not in the map are ignored.
+  // New poses of keyframes already added; other ids are ignored. May re-key (see above).
   void updatePoses(const PoseMap& T_w_c_by_id);
 
-  // World-frame fused cloud: each keyframe cloud transformed by R_wc p + t_wc with the pose
-  // from T_w_c_by_id (keyframes missing there use their stored pose), concatenated, voxel
-  // downsampled at voxel_size, then statistical outlier removal (outlier_neighbors,
-  // outlier_std_ratio; skipped when outlier_neighbors is 0). Colours are the image's RGB, or
-  // with semantic_colour the PASCAL VOC palette of each point's label (unlabelled points grey).
-  std::shared_ptr<open3d::geometry::PointCloud> fuse(const PoseMap& T_w_c_by_id,
-                                                     bool semantic_colour = false) const;
+  // Voxels in the world frame (poses from T_w_c_by_id, else the newest stored), merged by one
+  // voxel downsample at voxel_size, then min_observations; NO outlier removal. Ordered by world
+  // voxel key, so the result does not depend on insertion order of equal keys.
+  DenseCloud extract(const PoseMap& T_w_c_by_id = {}) const;
+  // extract() + statistical outlier removal (removeStatisticalOutliers below).
+  DenseCloud exportCloud(const PoseMap& T_w_c_by_id = {}) const;
+  // exportCloud() as an Open3D cloud (toOpen3d below).
+  std::shared_ptr<open3d::geometry::PointCloud> fuse(const PoseMap& T_w_c_by_id, bool semantic_colour = false) const;
   std::shared_ptr<open3d::geometry::PointCloud> fuse(bool semantic_colour = false) const;
 
-  // Per-keyframe world clouds and camera centres (poses chosen as in fuse()), ordered by id.
+  // Stored voxels grouped by anchor keyframe (ordered by id): world points with the anchor's
+  // pose (chosen as in extract()), origin = the anchor's camera centre, timestamp = the
+  // anchor's (= first-seen time of its voxels). For OctoMap ray insertion and map checks.
   std::vector<WorldScan> worldScans(const PoseMap& T_w_c_by_id = {}) const;
 
-  bool contains(uint64_t keyframe_id) const { return entries_.count(keyframe_id) != 0; }
-  size_t keyframeCount() const { return entries_.size(); }
-  size_t storedPointCount() const;  // sum over keyframe clouds (after per-keyframe downsampling)
-  PoseMap poses() const;            // stored poses
+  bool contains(uint64_t keyframe_id) const { return keyframe_index_.count(keyframe_id) != 0; }
+  bool isCulled(uint64_t keyframe_id) const;
+  size_t keyframeCount() const { return keyframes_.size(); }  // ever added, culled included
+  size_t voxelCount() const { return voxels_.size(); }
+  DenseMapStats stats() const;
+  PoseMap poses() const;  // newest stored pose of every keyframe ever added
   const BackProjector& backProjector() const { return *back_projector_; }
   const DenseOptions& options() const { return options_; }
 
  private:
-  struct Entry {
-    std::shared_ptr<const KeyframeCloud> cloud;
-    SE3 T_w_c;
+  struct KeyframeRecord {
+    uint64_t id = 0;
+    Timestamp timestamp = 0;
+    SE3 T_w_c;        // newest pose
+    SE3 T_w_c_keyed;  // pose the anchored voxels' keys were computed with
+    float max_range = 0;     // farthest anchored point from the camera (bounds motion by rotation)
+    uint32_t anchored = 0;   // voxels anchored here
+    bool culled = false;
   };
-  const SE3& poseOf(uint64_t id, const Entry& entry, const PoseMap& T_w_c_by_id) const;
+  struct Voxel {
+    uint64_t key = 0;
+    Eigen::Vector3f p_anchor = Eigen::Vector3f::Zero();  // running mean, anchor's camera frame
+    uint32_t anchor = 0;        // index into keyframes_
+    uint32_t observations = 0;  // keyframes merged in
+    std::array<uint8_t, 3> rgb{0, 0, 0};
+    uint8_t label = 0;        // Boyer-Moore candidate
+    uint8_t label_votes = 0;  // its vote margin
+  };
+
+  uint32_t registerKeyframe(uint64_t id, Timestamp timestamp, const SE3& T_w_c);
+  uint64_t keyOf(const Vec3& p_w) const;
+  Vec3 worldPoint(const Voxel& voxel, const std::vector<SE3>& T_w_anchor) const;
+  // Merges voxel `from` into `into` (both stored voxels, world poses as given).
+  void mergeVoxel(Voxel& into, const Voxel& from, const std::vector<SE3>& T_w_anchor) const;
+  void rekeyMovedAnchors();
+  std::vector<SE3> anchorPoses(const PoseMap& T_w_c_by_id) const;
 
   DenseOptions options_;
   std::shared_ptr<const BackProjector> back_projector_;
-  std::map<uint64_t, Entry> entries_;
+  std::vector<KeyframeRecord> keyframes_;
+  std::unordered_map<uint64_t, uint32_t> keyframe_index_;  // id -> index into keyframes_
+  std::vector<Voxel> voxels_;
+  std::unordered_map<uint64_t, uint32_t> voxel_index_;  // key -> index into voxels_
+  size_t rekeys_ = 0, voxels_rekeyed_ = 0, voxels_merged_ = 0;
 };
+
+// Statistical outlier removal on the exported cloud (Open3D's, with DenseOptions'
+// outlier_neighbors / outlier_std_ratio; nothing happens when outlier_neighbors is 0 or the
+// cloud has no more points than that).
+void removeStatisticalOutliers(DenseCloud& cloud, const DenseOptions& options);
+
+// Open3D cloud with colours: the image's RGB, or with semantic_colour the PASCAL VOC palette
+// of each point's label (unlabelled points grey).
+std::shared_ptr<open3d::geometry::PointCloud> toOpen3d(const DenseCloud& cloud, bool semantic_colour = false);
 
 // PASCAL VOC colour map (bit-interleaved label id), as segmentation viewers draw classes.
 std::array<uint8_t, 3> semanticColour(uint8_t label);

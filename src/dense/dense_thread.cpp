@@ -1,8 +1,20 @@
 #include "dense/dense_thread.hpp"
 
+#include <chrono>
+#include <ctime>
+
 #include <open3d/geometry/PointCloud.h>
 
 namespace desslam::dense {
+namespace {
+// CPU time of the calling thread: on a busy 2-core machine wall time mostly measures waiting
+// for a core, not the work.
+double threadCpuMilliseconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
+}
+}  // namespace
 
 DenseMappingThread::DenseMappingThread(const DenseOptions& options, const PinholeCamera& camera,
                                        QueueFullPolicy full_policy)
@@ -29,15 +41,21 @@ void DenseMappingThread::run() {
   size_t seen_dropped = 0;
   while (auto message = queue_.pop()) {
     const DenseKeyframe& keyframe = **message;
-    // The expensive part, outside the lock: the BackProjector is immutable and shared.
-    auto cloud = std::make_shared<const KeyframeCloud>(
-        voxelDownsample(map_.backProjector()(keyframe), map_.options().voxel_size));
+    // Back-projection outside the lock: the BackProjector is immutable and shared.
+    const auto start = std::chrono::steady_clock::now();
+    const double cpu_start = threadCpuMilliseconds();
+    const KeyframeCloud cloud = map_.backProjector()(keyframe);
+    const double project_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     const size_t dropped = queue_.dropped();
     std::lock_guard lock(map_mutex_);
-    if (removed_ids_.erase(keyframe.keyframe_id) == 0) {
-      const auto it = pose_overrides_.find(keyframe.keyframe_id);
-      map_.addCloud(std::move(cloud), it != pose_overrides_.end() ? it->second : keyframe.T_w_c);
-    }
+    const auto merge_start = std::chrono::steady_clock::now();
+    applyPendingPoses();
+    const auto it = pose_overrides_.find(keyframe.keyframe_id);
+    map_.integrate(cloud, it != pose_overrides_.end() ? it->second : keyframe.T_w_c);
+    if (culled_ids_.erase(keyframe.keyframe_id) != 0) map_.removeKeyframe(keyframe.keyframe_id);
+    keyframe_ms_.push_back(project_ms +
+                           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - merge_start).count());
+    keyframe_cpu_ms_.push_back(threadCpuMilliseconds() - cpu_start);
     processed_ += 1 + (dropped - seen_dropped);  // dropped keyframes will never arrive
     seen_dropped = dropped;
     idle_.notify_all();
@@ -49,32 +67,73 @@ void DenseMappingThread::run() {
 
 void DenseMappingThread::updatePoses(const PoseMap& T_w_c_by_id) {
   std::lock_guard lock(map_mutex_);
-  for (const auto& [id, pose] : T_w_c_by_id) pose_overrides_.insert_or_assign(id, pose);
-  map_.updatePoses(T_w_c_by_id);
+  for (const auto& [id, pose] : T_w_c_by_id) {
+    pose_overrides_.insert_or_assign(id, pose);
+    pending_poses_.insert_or_assign(id, pose);
+  }
+}
+
+void DenseMappingThread::applyPendingPoses() const {
+  if (pending_poses_.empty()) return;
+  map_.updatePoses(pending_poses_);
+  pending_poses_.clear();
 }
 
 void DenseMappingThread::removeKeyframe(uint64_t keyframe_id) {
   std::lock_guard lock(map_mutex_);
-  pose_overrides_.erase(keyframe_id);
   if (map_.contains(keyframe_id)) {
     map_.removeKeyframe(keyframe_id);
   } else {
-    removed_ids_.insert(keyframe_id);  // still queued (or never pushed: then harmless)
+    culled_ids_.insert(keyframe_id);  // still queued (or never pushed: then harmless)
   }
+}
+
+DenseCloud DenseMappingThread::exportCloud(const PoseMap& T_w_c_by_id) const {
+  DenseCloud cloud;
+  {
+    std::lock_guard lock(map_mutex_);
+    applyPendingPoses();
+    cloud = map_.extract(T_w_c_by_id);
+  }
+  removeStatisticalOutliers(cloud, map_.options());  // options_ are immutable: no lock needed
+  return cloud;
+}
+
+std::vector<WorldScan> DenseMappingThread::worldScans(const PoseMap& T_w_c_by_id) const {
+  std::lock_guard lock(map_mutex_);
+  applyPendingPoses();
+  return map_.worldScans(T_w_c_by_id);
+}
+
+DenseMapStats DenseMappingThread::mapStats() const {
+  std::lock_guard lock(map_mutex_);
+  applyPendingPoses();
+  return map_.stats();
+}
+
+std::vector<double> DenseMappingThread::keyframeMilliseconds() const {
+  std::lock_guard lock(map_mutex_);
+  return keyframe_ms_;
+}
+
+std::vector<double> DenseMappingThread::keyframeCpuMilliseconds() const {
+  std::lock_guard lock(map_mutex_);
+  return keyframe_cpu_ms_;
 }
 
 DenseMap DenseMappingThread::snapshot() const {
   std::lock_guard lock(map_mutex_);
+  applyPendingPoses();
   return map_;
 }
 
 std::shared_ptr<open3d::geometry::PointCloud> DenseMappingThread::fuse(bool semantic_colour) const {
-  return snapshot().fuse(semantic_colour);
+  return toOpen3d(exportCloud(), semantic_colour);
 }
 
 std::shared_ptr<open3d::geometry::PointCloud> DenseMappingThread::fuse(const PoseMap& T_w_c_by_id,
                                                                        bool semantic_colour) const {
-  return snapshot().fuse(T_w_c_by_id, semantic_colour);
+  return toOpen3d(exportCloud(T_w_c_by_id), semantic_colour);
 }
 
 void DenseMappingThread::waitUntilIdle() const {

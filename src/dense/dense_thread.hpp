@@ -1,12 +1,13 @@
 // Dense mapping thread: keyframes come in through a bounded queue, the worker back-projects
-// them and adds them to a DenseMap; pose updates, culling and fuse() go through this object.
+// them and integrates them into a DenseMap; pose updates, culling and export go through here.
 //
 // Lock discipline (two locks, never held together):
 //  - the queue's own mutex (BoundedQueue) guards only the queue;
-//  - map_mutex_ guards map_, pose_overrides_, removed_ids_ and processed_. Held only for short
-//    bookkeeping: the worker back-projects and downsamples BEFORE taking it, and fuse() copies
-//    the map under it (clouds are shared and immutable, so the copy is cheap) and fuses after
-//    releasing it. So neither the producer nor a caller of fuse() waits for the other's work.
+//  - map_mutex_ guards map_, pose_overrides_, pending_poses_, culled_ids_, the timings and the
+//    counters. The worker back-projects BEFORE taking it and holds it while applying pending
+//    poses (a re-key is linear in the moved voxels) and merging the keyframe into the voxel map;
+//    exportCloud() holds it while extracting the voxels (linear in the voxel count) and runs
+//    the outlier filter after releasing it. updatePoses() only records poses under it.
 // Queue: capacity DenseOptions::queue_capacity; full policy kBlock (offline: every keyframe is
 // mapped; the producer waits) or kDropOldest (real time: the oldest waiting keyframe is dropped,
 // counted in droppedCount()).
@@ -40,16 +41,28 @@ class DenseMappingThread {
 
   // Any thread. New poses for keyframes (after local BA / loop closure). Also remembered for
   // keyframes still in the queue, so an update is never lost to the race with the worker.
+  // Cheap for the caller: the map applies them (and re-keys if needed) in the worker before
+  // its next keyframe, or in the next export/snapshot call.
   void updatePoses(const PoseMap& T_w_c_by_id);
-  // Any thread. A culled keyframe: removed now, or dropped when the worker reaches it.
+  // Any thread. A culled keyframe: its voxels stay (DenseMap::removeKeyframe), also when it is
+  // still queued (then it is marked once mapped).
   void removeKeyframe(uint64_t keyframe_id);
 
-  // Any thread. Fused world cloud with the newest poses known here (DenseMap::fuse), or with
-  // the given ones (ids missing there use the newest known).
+  // Any thread. Exported cloud with the newest poses known here (DenseMap::exportCloud), or
+  // with the given ones (ids missing there use the newest known).
+  DenseCloud exportCloud(const PoseMap& T_w_c_by_id = {}) const;
   std::shared_ptr<open3d::geometry::PointCloud> fuse(bool semantic_colour = false) const;
   std::shared_ptr<open3d::geometry::PointCloud> fuse(const PoseMap& T_w_c_by_id, bool semantic_colour = false) const;
-  // Any thread. A consistent copy of the map (cheap: clouds are shared), e.g. for worldScans().
+  // Any thread. DenseMap::worldScans under the lock (no copy of the map).
+  std::vector<WorldScan> worldScans(const PoseMap& T_w_c_by_id = {}) const;
+  // Any thread. A full copy of the map (linear in its voxel count: tests and tools only).
   DenseMap snapshot() const;
+  DenseMapStats mapStats() const;
+  // Milliseconds the worker spent on each keyframe (back-projection + integration, excluding
+  // waits), in processing order.
+  std::vector<double> keyframeMilliseconds() const;
+  // The same work as this thread's CPU time (excludes time the thread waited for a core).
+  std::vector<double> keyframeCpuMilliseconds() const;
 
   // Blocks until every keyframe pushed so far has been mapped or dropped (offline mode uses
   // this before exporting). Returns at once after stop().
@@ -57,8 +70,8 @@ class DenseMappingThread {
   // Closes the queue, maps what is left in it, joins the worker. Idempotent.
   void stop();
 
-  size_t keyframeCount() const;
-  size_t processedCount() const;  // keyframes taken from the queue (mapped or removed)
+  size_t keyframeCount() const;   // keyframes mapped (culled included)
+  size_t processedCount() const;  // keyframes taken from the queue (mapped or dropped)
   size_t droppedCount() const { return queue_.dropped(); }
 
  private:
@@ -67,9 +80,14 @@ class DenseMappingThread {
   BoundedQueue<std::shared_ptr<const DenseKeyframe>> queue_;
   mutable std::mutex map_mutex_;
   mutable std::condition_variable idle_;
-  DenseMap map_;
+  void applyPendingPoses() const;  // requires map_mutex_
+
+  mutable DenseMap map_;         // mutable: const readers first apply pending poses
   PoseMap pose_overrides_;       // newest poses, also for keyframes not yet mapped
-  std::set<uint64_t> removed_ids_;
+  mutable PoseMap pending_poses_;  // sent but not yet applied to map_
+  std::set<uint64_t> culled_ids_;  // culled before the worker mapped them
+  std::vector<double> keyframe_ms_;
+  std::vector<double> keyframe_cpu_ms_;
   size_t pushed_ = 0;            // guarded by map_mutex_
   size_t processed_ = 0;         // guarded by map_mutex_
   bool stopped_ = false;         // guarded by map_mutex_

@@ -1,5 +1,9 @@
 #include "dense/map_export.hpp"
 
+#include <bit>
+#include <cstring>
+#include <fstream>
+
 #include <octomap/OcTree.h>
 #include <open3d/geometry/PointCloud.h>
 #include <open3d/io/PointCloudIO.h>
@@ -48,6 +52,54 @@ std::shared_ptr<open3d::geometry::PointCloud> readPointCloud(const fs::path& pat
   if (!open3d::io::ReadPointCloud(path.string(), *cloud))
     throw InputError("cannot read point cloud " + path.string() + " (expected .ply, .pcd or .xyz)");
   return cloud;
+}
+
+namespace {
+constexpr char kSourcesMagic[8] = {'D', 'S', 'S', 'R', 'C', 0, 0, 0};
+constexpr uint32_t kSourcesVersion = 1;
+static_assert(std::endian::native == std::endian::little, "map sidecar I/O assumes a little-endian host");
+}  // namespace
+
+void writeMapSources(const fs::path& path, const std::vector<Timestamp>& first_seen) {
+  requireWritableTarget(path, "map sidecar");
+  std::ofstream out(path, std::ios::binary);
+  const uint32_t version = kSourcesVersion, reserved = 0;
+  const uint64_t count = first_seen.size();
+  out.write(kSourcesMagic, sizeof(kSourcesMagic));
+  out.write(reinterpret_cast<const char*>(&version), sizeof(version));
+  out.write(reinterpret_cast<const char*>(&reserved), sizeof(reserved));
+  out.write(reinterpret_cast<const char*>(&count), sizeof(count));
+  out.write(reinterpret_cast<const char*>(first_seen.data()), static_cast<std::streamsize>(count * sizeof(double)));
+  if (!out) throw InputError("cannot write map sidecar " + path.string() + ": write failed (check disk space)");
+}
+
+std::vector<Timestamp> readMapSources(const fs::path& path, std::optional<size_t> expected_count) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw InputError("map sidecar " + path.string() +
+                     " is missing: it is written by `desslam run` next to dense_map.ply; re-run to create it");
+  char magic[8] = {};
+  uint32_t version = 0, reserved = 0;
+  uint64_t count = 0;
+  in.read(magic, sizeof(magic));
+  in.read(reinterpret_cast<char*>(&version), sizeof(version));
+  in.read(reinterpret_cast<char*>(&reserved), sizeof(reserved));
+  in.read(reinterpret_cast<char*>(&count), sizeof(count));
+  if (!in || std::memcmp(magic, kSourcesMagic, sizeof(magic)) != 0)
+    throw InputError(path.string() + " is not a dense-map sidecar (bad header); re-run `desslam run` to rewrite it");
+  if (version != kSourcesVersion)
+    throw InputError(path.string() + " has sidecar version " + std::to_string(version) + ", this program reads " +
+                     std::to_string(kSourcesVersion) + "; re-run `desslam run` with this version");
+  if (expected_count && count != *expected_count)
+    throw InputError(path.string() + " lists " + std::to_string(count) + " points but the map has " +
+                     std::to_string(*expected_count) +
+                     ": the sidecar belongs to another dense_map.ply; re-run `desslam run` to write both together");
+  std::vector<Timestamp> times(count);
+  in.read(reinterpret_cast<char*>(times.data()), static_cast<std::streamsize>(count * sizeof(double)));
+  if (in.gcount() != static_cast<std::streamsize>(count * sizeof(double)))
+    throw InputError(path.string() + " is truncated (" + std::to_string(count) +
+                     " times announced); re-run `desslam run` to rewrite it");
+  return times;
 }
 
 void writeOctomap(const fs::path& path, const std::vector<WorldScan>& scans, double resolution, double max_range) {

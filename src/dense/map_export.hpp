@@ -4,9 +4,11 @@
 
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "core/se3.hpp"
+#include "core/types.hpp"
 #include "dense/dense_keyframe.hpp"
 #include "dense/map_render.hpp"
 
@@ -22,6 +24,15 @@ void writePly(const std::filesystem::path& path, const open3d::geometry::PointCl
 void writePcd(const std::filesystem::path& path, const open3d::geometry::PointCloud& cloud);
 // PLY/PCD/XYZ by extension; throws InputError when missing or unreadable.
 std::shared_ptr<open3d::geometry::PointCloud> readPointCloud(const std::filesystem::path& path);
+
+// Sidecar of an exported map (dense_map_sources.bin beside dense_map.ply): the first-seen time
+// of every point, in the PLY's order, for the map check. Binary little-endian: 8-byte magic
+// "DSSRC\0\0\0", uint32 version (1), uint32 reserved (0), uint64 count, count float64 times.
+void writeMapSources(const std::filesystem::path& path, const std::vector<Timestamp>& first_seen);
+// Throws InputError naming the file when it is missing, not a sidecar, of another version,
+// truncated, or (expected_count given) holds a different number of times than the map has points.
+std::vector<Timestamp> readMapSources(const std::filesystem::path& path,
+                                      std::optional<size_t> expected_count = std::nullopt);
 
 // OctoMap .bt with occupancy from RAY INSERTION: every keyframe cloud (DenseMap::worldScans) is
 // inserted as a scan from its camera centre, so cells along each ray become free and cells at

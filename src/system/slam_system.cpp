@@ -11,6 +11,7 @@
 
 #include "dense/dense_thread.hpp"
 #include "dense/map_export.hpp"
+#include "dense/memory_usage.hpp"
 #include "dynamic/mask_utils.hpp"
 #include "semantic/semantic_thread.hpp"
 #include "semantic/segmenter.hpp"
@@ -188,6 +189,16 @@ void SlamSystem::pushDenseKeyframe(const map::Keyframe* kf, const map::Frame& fr
       cv::circle(exclude, frame.features->keypoints[i].pt, kDynamicFeatureRadius, cv::Scalar(255), cv::FILLED);
   }
   dense_kf->exclude_mask = exclude;
+  // Newest poses of every keyframe so far (culled ones follow their parent): the dense map
+  // merges the new keyframe's points into voxels anchored at older keyframes with the poses
+  // local BA has refined. Cheap here: the dense thread applies them itself.
+  dense::PoseMap poses;
+  {
+    std::shared_lock lock(map_.mutex());
+    for (const map::Keyframe* other : map_.allKeyframes())
+      if (other != kf) poses.emplace(other->id, map::keyframeTcw(other).inverse());
+  }
+  dense_->updatePoses(poses);
   dense_->push(std::move(dense_kf));
 }
 
@@ -297,6 +308,7 @@ nlohmann::json SlamSystem::statistics() const {
 nlohmann::json SlamSystem::exportDenseMap(const std::filesystem::path& out_dir, bool semantic_colour) const {
   if (!dense_) return {{"enabled", false}};
   const auto start = std::chrono::steady_clock::now();
+  const size_t peak_before_export = dense::peakResidentBytes();
   dense::PoseMap poses;
   std::vector<SE3> camera_path;
   {
@@ -305,22 +317,41 @@ nlohmann::json SlamSystem::exportDenseMap(const std::filesystem::path& out_dir, 
     for (const map::Keyframe* kf : map_.keyframes()) camera_path.push_back(kf->T_w_c());
   }
   dense_->updatePoses(poses);
-  const std::shared_ptr<open3d::geometry::PointCloud> cloud = dense_->fuse(poses, semantic_colour);
+  const dense::DenseCloud exported = dense_->exportCloud(poses);
+  const double cloud_ms = millisecondsSince(start);
+  const std::shared_ptr<open3d::geometry::PointCloud> cloud = dense::toOpen3d(exported, semantic_colour);
   dense::writePly(out_dir / "dense_map.ply", *cloud);
   dense::writePcd(out_dir / "dense_map.pcd", *cloud);
-  const dense::DenseMap snapshot = dense_->snapshot();
-  dense::writeOctomap(out_dir / "octomap.bt", snapshot.worldScans(poses), options_.dense.octomap_resolution,
+  dense::writeMapSources(out_dir / "dense_map_sources.bin", exported.first_seen);
+  const auto octomap_start = std::chrono::steady_clock::now();
+  dense::writeOctomap(out_dir / "octomap.bt", dense_->worldScans(poses), options_.dense.octomap_resolution,
                       options_.dense.max_depth);
+  const double octomap_ms = millisecondsSince(octomap_start);
   dense::RenderSettings render;
   render.width = options_.dense.render_width;
   render.height = options_.dense.render_height;
   render.point_size = options_.dense.voxel_size;
   dense::renderPng(out_dir / "dense_map.png", *cloud, camera_path, render);
+  const dense::DenseMapStats stats = dense_->mapStats();
+  // The free-space-violation share needs the keyframes' depth images, which the dense thread
+  // does not keep (that is what bounds its memory): `desslam mapcheck` computes it.
   return {{"enabled", true},
-          {"keyframes", snapshot.keyframeCount()},
-          {"stored_points", snapshot.storedPointCount()},
+          {"keyframes", stats.keyframes},
+          {"keyframes_culled", stats.culled},
+          {"stored_voxels", stats.voxels},
           {"map_points", cloud->points_.size()},
-          {"export_ms", millisecondsSince(start)}};
+          {"voxels", stats.voxels},
+          {"rekeys", stats.rekeys},
+          {"voxels_rekeyed", stats.voxels_rekeyed},
+          {"voxels_merged_by_rekey", stats.voxels_merged},
+          {"thread_ms_per_keyframe", summarizeMilliseconds(dense_->keyframeMilliseconds())},
+          {"thread_cpu_ms_per_keyframe", summarizeMilliseconds(dense_->keyframeCpuMilliseconds())},
+          {"peak_rss_mib", static_cast<double>(dense::peakResidentBytes()) / (1024.0 * 1024.0)},
+          {"peak_rss_before_export_mib", static_cast<double>(peak_before_export) / (1024.0 * 1024.0)},
+          {"export_cloud_ms", cloud_ms},
+          {"export_octomap_ms", octomap_ms},
+          {"export_ms", millisecondsSince(start)},
+          {"sources_file", "dense_map_sources.bin"}};
 }
 
 }  // namespace desslam::system

@@ -1,0 +1,483 @@
+#include "loop/loop_closer.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <set>
+#include <shared_mutex>
+
+#include "matching/matcher.hpp"
+#include "optim/bundle_adjustment.hpp"
+#include "optim/pose_graph.hpp"
+
+namespace desslam::loop {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+constexpr double kFuseRadiusPx = 4.0;
+
+// Holds a MappingPause for a scope (no-op without one).
+class PauseScope {
+ public:
+  explicit PauseScope(MappingPause* pause) : pause_(pause) {
+    if (pause_ != nullptr) pause_->pause();
+  }
+  ~PauseScope() {
+    if (pause_ != nullptr) pause_->resume();
+  }
+  PauseScope(const PauseScope&) = delete;
+  PauseScope& operator=(const PauseScope&) = delete;
+
+ private:
+  MappingPause* pause_;
+};
+}  // namespace
+
+// ---------------------------------------------------------------- MappingPause
+
+void MappingPause::enter() {
+  std::unique_lock lock(mutex_);
+  cv_.wait(lock, [&] { return pausers_ == 0; });
+  working_ = true;
+}
+
+void MappingPause::leave() {
+  {
+    std::lock_guard lock(mutex_);
+    working_ = false;
+  }
+  cv_.notify_all();
+}
+
+void MappingPause::setAbortFlag(std::atomic<bool>* flag) {
+  std::lock_guard lock(mutex_);
+  abort_flag_ = flag;
+}
+
+void MappingPause::pause() {
+  std::unique_lock lock(mutex_);
+  ++pausers_;
+  if (abort_flag_ != nullptr) *abort_flag_ = true;
+  cv_.wait(lock, [&] { return !working_; });
+}
+
+void MappingPause::resume() {
+  {
+    std::lock_guard lock(mutex_);
+    if (pausers_ > 0) --pausers_;
+  }
+  cv_.notify_all();
+}
+
+bool MappingPause::paused() const {
+  std::lock_guard lock(mutex_);
+  return pausers_ > 0;
+}
+
+// ---------------------------------------------------------------- LoopCloser
+
+LoopCloser::LoopCloser(const SystemOptions& options, const PinholeCamera& camera, map::Map& map,
+                       KeyframeDatabase& database, MappingPause* pause, GlobalBaMode global_ba)
+    : options_(options),
+      camera_(camera),
+      map_(map),
+      pause_(pause),
+      global_ba_mode_(options.loop.global_ba ? global_ba : GlobalBaMode::kOff),
+      bf_(camera.fx() * options.tracking.depth_baseline),
+      detector_(options.loop, camera, map, database) {}
+
+LoopCloser::~LoopCloser() { abortGlobalBa(); }
+
+void LoopCloser::setListener(std::function<void(const LoopEvent&)> listener) {
+  std::lock_guard lock(stats_mutex_);
+  listener_ = std::move(listener);
+}
+
+LoopClosingStats LoopCloser::stats() const {
+  std::lock_guard lock(stats_mutex_);
+  return stats_;
+}
+
+void LoopCloser::notify(const LoopEvent& event) {
+  std::function<void(const LoopEvent&)> listener;
+  {
+    std::lock_guard lock(stats_mutex_);
+    listener = listener_;
+  }
+  if (listener) listener(event);
+}
+
+bool LoopCloser::process(map::Keyframe* kf) {
+  if (!options_.loop.enabled) return false;
+  std::optional<LoopMatch> match = detector_.detect(kf);
+  {
+    std::lock_guard lock(stats_mutex_);
+    stats_.detection = detector_.stats();
+    if (match) ++stats_.loops_detected;
+  }
+  if (!match) return false;
+  return correctLoop(*match);
+}
+
+bool LoopCloser::correctLoop(const LoopMatch& match) {
+  abortGlobalBa();  // its result would undo this correction
+  uint64_t newest_in_graph = 0;
+  if (!applyLoopCorrection(match, newest_in_graph)) return false;
+  if (global_ba_mode_ == GlobalBaMode::kThread) {
+    startGlobalBa(newest_in_graph);
+  } else if (global_ba_mode_ == GlobalBaMode::kInline) {
+    global_ba_running_ = true;
+    runGlobalBa(newest_in_graph);
+  }
+  return true;
+}
+
+bool LoopCloser::applyLoopCorrection(const LoopMatch& match, uint64_t& newest_in_graph) {
+  const auto start = Clock::now();
+  std::lock_guard correction(correction_mutex_);
+  PauseScope paused(pause_);
+
+  map::Keyframe* current = match.current;
+  map::Keyframe* loop = match.loop;
+  std::vector<optim::PoseGraphNode> nodes;
+  std::vector<optim::PoseGraphEdge> edges;
+  std::vector<map::Keyframe*> graph_keyframes;
+  std::map<uint64_t, SE3> snapshot_T_c_w;  // poses the pose graph starts from
+  SE3 C;                                   // T_wnew_wold of step 2
+  size_t fused = 0;
+  {
+    std::unique_lock lock(map_.mutex());
+    if (current->bad || loop->bad) {
+      std::lock_guard s(stats_mutex_);
+      ++stats_.loops_skipped;
+      return false;
+    }
+    map::updateConnections(current);
+    std::vector<map::Keyframe*> connected{current};
+    for (map::Keyframe* nb : map::bestCovisibles(current, 0)) connected.push_back(nb);
+    std::set<uint64_t> connected_ids;
+    for (map::Keyframe* k : connected) connected_ids.insert(k->id);
+
+    // Poses before any change: the essential graph's odometry edges are measured on them.
+    std::map<uint64_t, SE3> old_T_w_c;
+    const std::vector<map::Keyframe*> keyframes = map_.keyframes();
+    for (map::Keyframe* k : keyframes) old_T_w_c[k->id] = k->T_w_c();
+
+    // Step 2: move K's neighbourhood (poses and points) into the loop's world.
+    C = match.T_w_c_corrected * current->T_c_w;
+    std::set<map::MapPoint*> moved;
+    for (map::Keyframe* k : connected)
+      for (map::MapPoint* p : k->points)
+        if (p != nullptr && !p->bad && moved.insert(p).second) p->position = C * p->position;
+    for (map::Keyframe* k : connected) k->T_c_w = (C * old_T_w_c[k->id]).inverse();
+
+    // Fuse: K's matched points become the loop's; the loop group's points are fused into K's
+    // neighbourhood.
+    std::map<uint64_t, std::set<uint64_t>> links_before;
+    for (map::Keyframe* k : connected)
+      for (auto& [id, entry] : k->connection_weights) links_before[k->id].insert(id);
+    for (size_t i = 0; i < match.matched_points.size(); ++i) {
+      map::MapPoint* loop_point = match.matched_points[i];
+      if (loop_point == nullptr || loop_point->bad) continue;
+      map::MapPoint* own = current->points[i];
+      if (own == loop_point) continue;
+      if (own != nullptr && !own->bad) {
+        map::replacePoint(map_, own, loop_point);
+        ++fused;
+      } else if (loop_point->observations.count(current->id) == 0) {
+        map::addObservation(loop_point, current, static_cast<int>(i));
+        map::updateDescriptor(loop_point);
+        ++fused;
+      }
+    }
+    std::vector<map::MapPoint*> loop_points;
+    {
+      std::set<map::MapPoint*> unique;
+      std::vector<map::Keyframe*> group{loop};
+      for (map::Keyframe* nb : map::bestCovisibles(loop, options_.loop.group_size)) group.push_back(nb);
+      for (map::Keyframe* g : group)
+        for (map::MapPoint* p : g->points)
+          if (p != nullptr && !p->bad && unique.insert(p).second) loop_points.push_back(p);
+    }
+    matching::MatcherOptions matcher;
+    matcher.bf = bf_;
+    for (map::Keyframe* k : connected)
+      fused += static_cast<size_t>(matching::fuseIntoKeyframe(map_, k, loop_points, camera_, kFuseRadiusPx, matcher));
+    for (map::Keyframe* k : connected) {
+      for (map::MapPoint* p : k->points)
+        if (p != nullptr && !p->bad) map::updateNormalAndDepth(p);
+      map::updateConnections(k);
+    }
+    // New links from K's neighbourhood to keyframes outside it are the loop's edges.
+    bool linked_to_loop = false;
+    for (map::Keyframe* k : connected)
+      for (auto& [id, entry] : k->connection_weights) {
+        if (connected_ids.count(id) != 0 || links_before[k->id].count(id) != 0) continue;
+        loop_edges_.emplace_back(k, entry.first);
+        linked_to_loop = linked_to_loop || entry.first == loop;
+      }
+    if (!linked_to_loop) loop_edges_.emplace_back(current, loop);
+
+    // Essential graph over every good keyframe.
+    std::map<uint64_t, int> index;
+    for (map::Keyframe* k : map_.keyframes()) {
+      index[k->id] = static_cast<int>(graph_keyframes.size());
+      graph_keyframes.push_back(k);
+      snapshot_T_c_w[k->id] = k->T_c_w;
+      nodes.push_back({k->T_w_c(), k == loop});
+      newest_in_graph = std::max(newest_in_graph, k->id);
+    }
+    auto oldRelative = [&](map::Keyframe* a, map::Keyframe* b) {
+      auto ia = old_T_w_c.find(a->id), ib = old_T_w_c.find(b->id);
+      // Keyframes created while this ran have no "old" pose: their present one is it.
+      const SE3 Ta = ia != old_T_w_c.end() ? ia->second : a->T_w_c();
+      const SE3 Tb = ib != old_T_w_c.end() ? ib->second : b->T_w_c();
+      return Ta.inverse() * Tb;
+    };
+    std::set<std::pair<int, int>> added;
+    auto addEdge = [&](map::Keyframe* a, map::Keyframe* b, const SE3& T_a_b) {
+      auto ia = index.find(a->id), ib = index.find(b->id);
+      if (ia == index.end() || ib == index.end() || ia->second == ib->second) return;
+      const auto key = std::minmax(ia->second, ib->second);
+      if (!added.insert(key).second) return;
+      edges.push_back({ia->second, ib->second, T_a_b, 1.0});
+    };
+    // Loop edges first (measured on the corrected poses) so they win over odometry duplicates.
+    for (auto& [a, b] : loop_edges_)
+      if (!a->bad && !b->bad) addEdge(a, b, a->T_w_c().inverse() * b->T_w_c());
+    for (map::Keyframe* k : graph_keyframes) {
+      if (k->parent != nullptr && !k->parent->bad) addEdge(k->parent, k, oldRelative(k->parent, k));
+      for (map::Keyframe* nb : map::covisiblesWithWeight(k, options_.loop.strong_covisibility_weight))
+        if (nb->id < k->id) addEdge(nb, k, oldRelative(nb, k));
+    }
+  }
+
+  // Step 3: pose graph on copies; tracking goes on meanwhile.
+  const auto graph_start = Clock::now();
+  optim::PoseGraphOptions graph_options;
+  graph_options.iterations = options_.loop.pose_graph_iterations;
+  const optim::PoseGraphSummary summary = optim::optimizePoseGraph(nodes, edges, graph_options);
+  const double graph_ms = msSince(graph_start);
+
+  // Step 4: write back; points follow their reference keyframe.
+  SE3 current_correction;
+  {
+    std::unique_lock lock(map_.mutex());
+    std::map<uint64_t, SE3> correction;  // keyframe id -> T_wnew_wsnapshot
+    for (size_t i = 0; i < graph_keyframes.size(); ++i) {
+      map::Keyframe* k = graph_keyframes[i];
+      const SE3 D = summary.usable ? nodes[i].T_w_c * snapshot_T_c_w[k->id] : SE3();
+      correction[k->id] = D;
+      if (!k->bad) k->T_c_w = (D * k->T_w_c()).inverse();
+    }
+    current_correction = correction.count(current->id) ? correction[current->id] : SE3();
+    // Keyframes tracking made while this ran were placed in the old world.
+    for (map::Keyframe* k : map_.keyframes()) {
+      if (correction.count(k->id) != 0) continue;
+      const SE3 D = current_correction * C;
+      correction[k->id] = D;
+      k->T_c_w = (D * k->T_w_c()).inverse();
+    }
+    for (map::MapPoint* p : map_.points()) {
+      const map::Keyframe* ref = p->reference;
+      auto it = ref != nullptr ? correction.find(ref->id) : correction.end();
+      if (it == correction.end()) {
+        for (auto& [kid, obs] : p->observations) {
+          it = correction.find(kid);
+          if (it != correction.end()) break;
+        }
+      }
+      if (it == correction.end()) continue;
+      p->position = it->second * p->position;
+      map::updateNormalAndDepth(p);
+    }
+  }
+  detector_.loopClosed(current->id);
+  {
+    std::lock_guard s(stats_mutex_);
+    ++stats_.loops_closed;
+    stats_.points_fused += fused;
+    stats_.pose_graph_ms.push_back(graph_ms);
+    stats_.correction_ms.push_back(msSince(start));
+    stats_.detection = detector_.stats();
+  }
+  notify({LoopEvent::Kind::kLoopCorrected, current->id, loop->id, current_correction * C});
+  return true;
+}
+
+void LoopCloser::startGlobalBa(uint64_t newest_keyframe) {
+  abortGlobalBa();
+  global_ba_abort_ = false;
+  global_ba_running_ = true;
+  global_ba_thread_ = std::thread([this, newest_keyframe] { runGlobalBa(newest_keyframe); });
+}
+
+void LoopCloser::abortGlobalBa() {
+  global_ba_abort_ = true;
+  if (global_ba_thread_.joinable()) global_ba_thread_.join();
+  global_ba_abort_ = false;
+}
+
+void LoopCloser::waitForGlobalBa() {
+  std::unique_lock lock(ba_wait_mutex_);
+  ba_done_cv_.wait(lock, [&] { return !global_ba_running_.load(); });
+}
+
+void LoopCloser::runGlobalBa(uint64_t newest_keyframe) {
+  const auto start = Clock::now();
+  std::vector<map::Keyframe*> keyframes;
+  std::vector<map::MapPoint*> points;
+  std::vector<optim::BaKeyframe> ba_keyframes;
+  std::vector<optim::BaPoint> ba_points;
+  std::vector<optim::BaObservation> ba_observations;
+  {
+    std::shared_lock lock(map_.mutex());
+    std::map<uint64_t, int> index;
+    for (map::Keyframe* k : map_.keyframes()) {
+      index[k->id] = static_cast<int>(keyframes.size());
+      keyframes.push_back(k);
+      ba_keyframes.push_back({k->T_c_w, k->id == 0});
+    }
+    if (!keyframes.empty() && std::none_of(ba_keyframes.begin(), ba_keyframes.end(), [](auto& k) { return k.fixed; }))
+      ba_keyframes.front().fixed = true;
+    for (map::MapPoint* p : map_.points()) {
+      const int point_index = static_cast<int>(points.size());
+      bool observed = false;
+      for (auto& [kid, obs] : p->observations) {
+        auto it = index.find(kid);
+        if (it == index.end()) continue;
+        const map::FeatureSet& f = *obs.first->features;
+        const int i = obs.second;
+        optim::BaObservation o;
+        o.keyframe = it->second;
+        o.point = point_index;
+        o.obs.uv = f.uv[i];
+        o.obs.depth = f.hasDepth(i) ? f.depth[i] : -1.0;
+        o.obs.inv_sigma2 = f.pyramid->inv_sigma2[f.level(i)];
+        ba_observations.push_back(o);
+        observed = true;
+      }
+      if (!observed) continue;
+      points.push_back(p);
+      ba_points.push_back({p->position});
+    }
+  }
+  {
+    std::lock_guard s(stats_mutex_);
+    ++stats_.global_ba_runs;
+  }
+  bool finished = false;
+  if (ba_keyframes.size() >= 2 && !ba_points.empty()) {
+    optim::BundleAdjustmentOptions ba;
+    ba.bf = bf_;
+    ba.iterations = options_.loop.global_ba_iterations;
+    finished = optim::bundleAdjust(camera_, ba_keyframes, ba_points, ba_observations, ba, &global_ba_abort_);
+  }
+  if (finished && !global_ba_abort_) {
+    std::lock_guard correction(correction_mutex_);
+    PauseScope paused(pause_);
+    SE3 newest_correction;
+    {
+      std::unique_lock lock(map_.mutex());
+      std::map<uint64_t, SE3> correction;  // T_wnew_wold per keyframe
+      for (size_t i = 0; i < keyframes.size(); ++i) {
+        map::Keyframe* k = keyframes[i];
+        if (k->bad) continue;
+        correction[k->id] = ba_keyframes[i].T_c_w.inverse() * k->T_c_w;
+        k->T_c_w = ba_keyframes[i].T_c_w;
+      }
+      // Keyframes added since the snapshot follow their spanning-tree parent (ids ascend, so a
+      // parent is handled before its children).
+      for (map::Keyframe* k : map_.keyframes()) {
+        if (correction.count(k->id) != 0) continue;
+        SE3 D;
+        if (k->parent != nullptr && correction.count(k->parent->id) != 0) D = correction[k->parent->id];
+        correction[k->id] = D;
+        k->T_c_w = (D * k->T_w_c()).inverse();
+      }
+      std::set<const map::MapPoint*> optimised;
+      for (size_t i = 0; i < points.size(); ++i) {
+        if (points[i]->bad) continue;
+        points[i]->position = ba_points[i].p_w;
+        optimised.insert(points[i]);
+      }
+      for (map::MapPoint* p : map_.points()) {
+        if (optimised.count(p) == 0 && p->reference != nullptr) {
+          auto it = correction.find(p->reference->id);
+          if (it != correction.end()) p->position = it->second * p->position;
+        }
+        map::updateNormalAndDepth(p);
+      }
+      auto it = correction.find(newest_keyframe);
+      if (it != correction.end()) newest_correction = it->second;
+    }
+    {
+      std::lock_guard s(stats_mutex_);
+      ++stats_.global_ba_applied;
+      stats_.global_ba_ms.push_back(msSince(start));
+    }
+    notify({LoopEvent::Kind::kGlobalBaApplied, newest_keyframe, 0, newest_correction});
+  } else {
+    std::lock_guard s(stats_mutex_);
+    ++stats_.global_ba_aborted;
+  }
+  {
+    std::lock_guard lock(ba_wait_mutex_);
+    global_ba_running_ = false;
+  }
+  ba_done_cv_.notify_all();
+}
+
+// ---------------------------------------------------------------- LoopClosingThread
+
+LoopClosingThread::LoopClosingThread(LoopCloser& closer, size_t capacity)
+    : closer_(closer), queue_(capacity, QueueFullPolicy::kDropOldest), worker_([this] { run(); }) {}
+
+LoopClosingThread::~LoopClosingThread() { stop(); }
+
+void LoopClosingThread::push(map::Keyframe* kf) {
+  const size_t dropped_before = queue_.dropped();
+  ++pending_;
+  if (!queue_.push(kf)) {
+    --pending_;
+    return;
+  }
+  // A dropped keyframe will never be processed.
+  const size_t dropped_now = queue_.dropped();
+  if (dropped_now > dropped_before) {
+    {
+      std::lock_guard lock(idle_mutex_);
+      pending_ -= static_cast<int>(dropped_now - dropped_before);
+    }
+    idle_cv_.notify_all();
+  }
+}
+
+void LoopClosingThread::waitUntilIdle() {
+  {
+    std::unique_lock lock(idle_mutex_);
+    idle_cv_.wait(lock, [&] { return pending_.load() <= 0; });
+  }
+  closer_.waitForGlobalBa();
+}
+
+void LoopClosingThread::stop() {
+  queue_.close();
+  if (worker_.joinable()) worker_.join();
+  closer_.waitForGlobalBa();
+}
+
+void LoopClosingThread::run() {
+  while (auto kf = queue_.pop()) {
+    closer_.process(*kf);
+    {
+      std::lock_guard lock(idle_mutex_);
+      --pending_;
+    }
+    idle_cv_.notify_all();
+  }
+}
+
+}  // namespace desslam::loop

@@ -1,0 +1,294 @@
+#include "loop/loop_detector.hpp"
+
+#include <algorithm>
+#include <limits>
+#include <map>
+#include <mutex>
+#include <shared_mutex>
+
+#include <spdlog/spdlog.h>
+
+#include "feature/descriptor.hpp"
+#include "loop/rigid_estimation.hpp"
+#include "matching/matcher.hpp"
+
+namespace desslam::loop {
+
+namespace {
+
+// Camera-frame 3-D point of a keyframe feature: its depth reading, else its map point.
+bool cameraPoint(const map::Keyframe* kf, int i, const PinholeCamera& camera, Vec3& p_c) {
+  const map::FeatureSet& f = *kf->features;
+  if (f.hasDepth(i)) {
+    p_c = camera.backProject(f.uv[i], f.depth[i]);
+    return true;
+  }
+  const map::MapPoint* p = kf->points[i];
+  if (p == nullptr || p->bad) return false;
+  p_c = kf->T_c_w * p->position;
+  return p_c.z() > 0;
+}
+
+RigidRansacOptions ransacOptions(const LoopOptions& o) {
+  RigidRansacOptions r;
+  r.iterations = o.ransac_iterations;
+  r.threshold_m = o.ransac_threshold_m;
+  r.min_inliers = o.min_rigid_inliers;
+  return r;
+}
+
+}  // namespace
+
+LoopDetector::LoopDetector(const LoopOptions& options, const PinholeCamera& camera, map::Map& map,
+                           KeyframeDatabase& database)
+    : options_(options), camera_(camera), map_(map), database_(database) {
+  options_.validate();
+}
+
+void LoopDetector::loopClosed(uint64_t kf_id) {
+  last_loop_keyframe_ = kf_id;
+  had_loop_ = true;
+  groups_.clear();
+}
+
+BowEncoding LoopDetector::encodingOf(map::Keyframe* kf) {
+  BowEncoding e;
+  auto bow = database_.bowVector(kf->id);
+  auto features = database_.featureVector(kf->id);
+  if (bow && features) {
+    e.bow = std::move(*bow);
+    e.features = std::move(*features);
+    return e;
+  }
+  e = database_.encode(*kf->features, kf->status);
+  database_.add(kf, e);
+  return e;
+}
+
+std::optional<LoopMatch> LoopDetector::detect(map::Keyframe* kf) {
+  std::shared_lock lock(map_.mutex());
+  if (kf == nullptr || kf->bad) return std::nullopt;
+  const BowEncoding encoding = encodingOf(kf);
+  ++stats_.keyframes_checked;
+  const uint64_t spacing = static_cast<uint64_t>(options_.min_keyframes_between_loops);
+  if (kf->id < spacing || (had_loop_ && kf->id < last_loop_keyframe_ + spacing)) return std::nullopt;
+
+  const std::vector<map::Keyframe*> candidates = consistentCandidates(kf, encoding.bow);
+  stats_.consistent_candidates += candidates.size();
+  for (map::Keyframe* candidate : candidates) {
+    if (auto match = verify(kf, candidate, encoding.features)) {
+      ++stats_.loops_detected;
+      return match;
+    }
+    ++stats_.rejected_geometry;
+  }
+  return std::nullopt;
+}
+
+std::vector<map::Keyframe*> LoopDetector::consistentCandidates(map::Keyframe* kf, const BowVector& bow) {
+  const std::vector<map::Keyframe*> neighbours = map::bestCovisibles(kf, 0);
+  if (neighbours.empty()) return {};
+  std::set<uint64_t> excluded{kf->id};
+  double min_score = 1.0;
+  for (map::Keyframe* nb : neighbours) {
+    excluded.insert(nb->id);
+    auto nb_bow = database_.bowVector(nb->id);
+    const double s = nb_bow ? Vocabulary::score(bow, *nb_bow)
+                            : Vocabulary::score(bow, database_.encode(*nb->features, nb->status).bow);
+    min_score = std::min(min_score, s);
+  }
+
+  BowQueryOptions query;
+  query.filter = [&excluded](uint64_t id) { return excluded.count(id) == 0; };
+  std::map<uint64_t, double> scores;  // candidates at or above the neighbours' lowest score
+  std::map<uint64_t, map::Keyframe*> by_id;
+  for (const KeyframeCandidate& c : database_.query(bow, query)) {
+    if (c.keyframe->bad || c.score < min_score) continue;
+    scores[c.keyframe->id] = c.score;
+    by_id[c.keyframe->id] = c.keyframe;
+  }
+
+  // Group each candidate with its best neighbours; a group scores what its members scored.
+  struct Group {
+    double score = 0;
+    map::Keyframe* best = nullptr;
+    double best_score = -1;
+  };
+  std::vector<Group> grouped;
+  double best_group = 0;
+  for (auto& [id, score] : scores) {
+    Group g{score, by_id[id], score};
+    for (map::Keyframe* nb : map::bestCovisibles(by_id[id], options_.group_size)) {
+      auto it = scores.find(nb->id);
+      if (it == scores.end()) continue;
+      g.score += it->second;
+      if (it->second > g.best_score) {
+        g.best_score = it->second;
+        g.best = nb;
+      }
+    }
+    best_group = std::max(best_group, g.score);
+    grouped.push_back(g);
+  }
+  std::vector<std::pair<double, map::Keyframe*>> representatives;
+  std::set<uint64_t> seen;
+  for (const Group& g : grouped)
+    if (g.score >= options_.group_score_ratio * best_group && seen.insert(g.best->id).second)
+      representatives.emplace_back(g.best_score, g.best);
+  std::sort(representatives.begin(), representatives.end(), [](const auto& a, const auto& b) {
+    return a.first != b.first ? a.first > b.first : a.second->id < b.second->id;
+  });
+
+  // Consistency: a candidate's group (it and its neighbours) must share a keyframe with a group
+  // that was a candidate for the previous keyframe; the streak length is carried over.
+  std::vector<ConsistentGroup> next_groups;
+  std::vector<map::Keyframe*> consistent;
+  std::vector<bool> previous_extended(groups_.size(), false);
+  for (auto& [score, candidate] : representatives) {
+    ConsistentGroup group;
+    group.keyframes.insert(candidate->id);
+    for (map::Keyframe* nb : map::bestCovisibles(candidate, 0)) group.keyframes.insert(nb->id);
+    int streak = 1;
+    for (size_t g = 0; g < groups_.size(); ++g) {
+      const bool shares = std::any_of(group.keyframes.begin(), group.keyframes.end(),
+                                      [&](uint64_t id) { return groups_[g].keyframes.count(id) != 0; });
+      if (!shares) continue;
+      streak = std::max(streak, groups_[g].count + 1);
+      previous_extended[g] = true;
+    }
+    group.count = streak;
+    next_groups.push_back(std::move(group));
+    if (streak >= options_.min_consistent_keyframes &&
+        static_cast<int>(consistent.size()) < options_.max_candidates)
+      consistent.push_back(candidate);
+  }
+  groups_.swap(next_groups);
+  if (!consistent.empty())
+    spdlog::debug("loop: keyframe {} has {} consistent candidate(s), best {}", kf->id, consistent.size(),
+                  consistent.front()->id);
+  return consistent;
+}
+
+std::optional<LoopMatch> LoopDetector::verify(map::Keyframe* kf, map::Keyframe* candidate,
+                                              const FeatureVector& kf_features) {
+  if (candidate->bad) return std::nullopt;
+  auto candidate_features = database_.featureVector(candidate->id);
+  if (!candidate_features) candidate_features = database_.encode(*candidate->features, candidate->status).features;
+  const map::FeatureSet& fa = *kf->features;
+  const map::FeatureSet& fb = *candidate->features;
+
+  // 1. Descriptor matches within shared vocabulary nodes: kf feature -> candidate map point.
+  std::map<int, std::pair<int, int>> best_for_point;  // candidate feature -> (kf feature, distance)
+  forEachSharedNode(kf_features, *candidate_features, [&](NodeId, const std::vector<int>& rows_a,
+                                                            const std::vector<int>& rows_b) {
+    for (int ia : rows_a) {
+      if (!kf->usable(ia)) continue;
+      int best = feature::kMaxDescriptorDistance + 1, second = best, best_ib = -1;
+      for (int ib : rows_b) {
+        const map::MapPoint* p = candidate->points[ib];
+        if (p == nullptr || p->bad) continue;
+        const int d = feature::descriptorDistance(fa.descriptor(ia), fb.descriptor(ib));
+        if (d < best) {
+          second = best;
+          best = d;
+          best_ib = ib;
+        } else if (d < second) {
+          second = d;
+        }
+      }
+      if (best_ib < 0 || best > options_.max_descriptor_distance) continue;
+      if (static_cast<double>(best) >= options_.match_ratio * second) continue;
+      auto it = best_for_point.find(best_ib);
+      if (it == best_for_point.end() || best < it->second.second) best_for_point[best_ib] = {ia, best};
+    }
+  });
+  std::vector<std::pair<int, int>> pairs;  // (kf feature, candidate feature)
+  std::vector<float> angle_differences;
+  for (auto& [ib, entry] : best_for_point) {
+    pairs.emplace_back(entry.first, ib);
+    angle_differences.push_back(fa.keypoints[entry.first].angle - fb.keypoints[ib].angle);
+  }
+  const std::vector<bool> rotation_ok = matching::orientationConsistent(angle_differences);
+
+  std::vector<PointCorrespondence> correspondences;
+  std::vector<std::pair<int, map::MapPoint*>> owners;  // kf feature, loop point
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    if (!rotation_ok[k]) continue;
+    Vec3 p_c;
+    if (!cameraPoint(kf, pairs[k].first, camera_, p_c)) continue;
+    map::MapPoint* p = candidate->points[pairs[k].second];
+    correspondences.push_back({p->position, p_c, p_c.z()});
+    owners.emplace_back(pairs[k].first, p);
+  }
+  const RigidRansacOptions ransac = ransacOptions(options_);
+  if (static_cast<int>(correspondences.size()) < options_.min_rigid_inliers) return std::nullopt;
+  const RigidRansacResult first = estimateRigidRansac(correspondences, ransac);
+  if (!first.success) return std::nullopt;
+
+  // 2. Guided search: the candidate group's points projected with the estimated pose.
+  std::vector<map::MapPoint*> matched(fa.size(), nullptr);
+  std::set<const map::MapPoint*> used;
+  for (size_t k = 0; k < owners.size(); ++k)
+    if (first.inliers[k]) {
+      matched[owners[k].first] = owners[k].second;
+      used.insert(owners[k].second);
+    }
+  const SE3 T_c_w = first.T_a_b.inverse();
+  const Vec3 center = first.T_a_b.translation();
+  std::map<uint64_t, map::MapPoint*> group_points;
+  std::vector<map::Keyframe*> group{candidate};
+  for (map::Keyframe* nb : map::bestCovisibles(candidate, options_.group_size)) group.push_back(nb);
+  for (map::Keyframe* g : group)
+    for (map::MapPoint* p : g->points)
+      if (p != nullptr && !p->bad && used.count(p) == 0) group_points.emplace(p->id, p);
+  const auto& pyramid = *fa.pyramid;
+  for (auto& [id, p] : group_points) {
+    const Vec3 p_c = T_c_w * p->position;
+    if (p_c.z() <= 0) continue;
+    const Vec2 uv = camera_.project(p_c);
+    if (!camera_.inImage(uv)) continue;
+    const double distance = (p->position - center).norm();
+    if (p->max_distance > 0 && (distance < 0.8 * p->min_distance || distance > 1.2 * p->max_distance)) continue;
+    const int level = p->max_distance > 0 ? map::predictLevel(p, distance, pyramid) : 0;
+    const double radius = options_.projection_radius_px * pyramid.scale[level];
+    int best = feature::kMaxDescriptorDistance + 1, best_i = -1;
+    for (int i : fa.inArea(uv.x(), uv.y(), radius, std::max(0, level - 1), level + 1)) {
+      if (matched[i] != nullptr || !kf->usable(i) || p->descriptor.empty()) continue;
+      const int d = feature::descriptorDistance(p->descriptor.ptr<uint8_t>(), fa.descriptor(i));
+      if (d < best) {
+        best = d;
+        best_i = i;
+      }
+    }
+    if (best_i >= 0 && best <= options_.max_descriptor_distance) matched[best_i] = p;
+  }
+
+  // 3. Refit on every match; the loop stands when enough agree.
+  correspondences.clear();
+  std::vector<int> features;
+  for (size_t i = 0; i < matched.size(); ++i) {
+    Vec3 p_c;
+    if (matched[i] == nullptr || !cameraPoint(kf, static_cast<int>(i), camera_, p_c)) {
+      matched[i] = nullptr;
+      continue;
+    }
+    correspondences.push_back({matched[i]->position, p_c, p_c.z()});
+    features.push_back(static_cast<int>(i));
+  }
+  RigidRansacOptions refit = ransac;
+  refit.min_inliers = options_.min_loop_matches;
+  const RigidRansacResult final_fit = estimateRigidRansac(correspondences, refit);
+  if (!final_fit.success) return std::nullopt;
+  LoopMatch match;
+  match.current = kf;
+  match.loop = candidate;
+  match.T_w_c_corrected = final_fit.T_a_b;
+  match.matched_points.assign(fa.size(), nullptr);
+  for (size_t k = 0; k < features.size(); ++k)
+    if (final_fit.inliers[k]) match.matched_points[features[k]] = matched[features[k]];
+  match.ransac_inliers = first.inlier_count;
+  match.inliers = final_fit.inlier_count;
+  return match;
+}
+
+}  // namespace desslam::loop

@@ -1,0 +1,80 @@
+// Loop detection (place recognition + geometric verification) for one new keyframe at a time:
+//  1. candidates from the keyframe database scoring at least the lowest score of the keyframe's
+//     covisible neighbours, the neighbours themselves excluded;
+//  2. candidates grouped with their best covisible keyframes; weak groups dropped;
+//  3. a group must recur over `min_consistent_keyframes` consecutive keyframes (groups linked
+//     by sharing a keyframe);
+//  4. descriptor matches (within vocabulary nodes) between the keyframe's features and the
+//     candidate's map points, rigid SE(3) RANSAC on 3-D-3-D pairs (depth gives the scale),
+//     guided search by projection of the candidate group's points, refit.
+//
+// Locking: detect() takes the Map lock shared for its whole (short: BoW queries, matching,
+// RANSAC) run and never exclusively; the database has its own mutex, always taken after the Map
+// lock. One thread calls detect() (the loop-closing thread): the consistency state is unguarded.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <set>
+#include <vector>
+
+#include "core/camera.hpp"
+#include "core/options.hpp"
+#include "core/se3.hpp"
+#include "loop/keyframe_database.hpp"
+#include "map/map.hpp"
+
+namespace desslam::loop {
+
+struct LoopMatch {
+  map::Keyframe* current = nullptr;  // the new keyframe
+  map::Keyframe* loop = nullptr;     // the old keyframe it sees again
+  // Pose of the current keyframe in the loop keyframe's (old, undrifted) world.
+  SE3 T_w_c_corrected;
+  // Per feature of `current`: the loop group's map point it matched (inliers only), or null.
+  std::vector<map::MapPoint*> matched_points;
+  int ransac_inliers = 0;  // from descriptor matching alone
+  int inliers = 0;         // after guided search and refit
+};
+
+struct LoopDetectionStats {
+  size_t keyframes_checked = 0;
+  size_t consistent_candidates = 0;  // candidates that passed the consistency test
+  size_t rejected_geometry = 0;      // ... but failed RANSAC or the guided search
+  size_t loops_detected = 0;
+};
+
+class LoopDetector {
+ public:
+  LoopDetector(const LoopOptions& options, const PinholeCamera& camera, map::Map& map, KeyframeDatabase& database);
+
+  // Checks one keyframe (in keyframe order). Adds it to the database when it is not there yet
+  // (local mapping normally has). Returns a verified loop, or nothing.
+  std::optional<LoopMatch> detect(map::Keyframe* kf);
+  // A loop ending at keyframe `kf_id` was closed: detection pauses for
+  // min_keyframes_between_loops keyframes and the consistency state starts over.
+  void loopClosed(uint64_t kf_id);
+
+  const LoopDetectionStats& stats() const { return stats_; }
+
+ private:
+  struct ConsistentGroup {
+    std::set<uint64_t> keyframes;
+    int count = 0;  // consecutive keyframes this group was a candidate in
+  };
+
+  std::vector<map::Keyframe*> consistentCandidates(map::Keyframe* kf, const BowVector& bow);
+  std::optional<LoopMatch> verify(map::Keyframe* kf, map::Keyframe* candidate, const FeatureVector& kf_features);
+  BowEncoding encodingOf(map::Keyframe* kf);
+
+  LoopOptions options_;
+  PinholeCamera camera_;
+  map::Map& map_;
+  KeyframeDatabase& database_;
+  std::vector<ConsistentGroup> groups_;
+  uint64_t last_loop_keyframe_ = 0;
+  bool had_loop_ = false;
+  LoopDetectionStats stats_;
+};
+
+}  // namespace desslam::loop
