@@ -108,7 +108,9 @@ void runSequence(const RunArgs& args) {
       if (due_s > now_s) std::this_thread::sleep_for(std::chrono::duration<double>(due_s - now_s));
       lag_ms.push_back(std::max(0.0, now_s - due_s) * 1000.0);
     }
-    slam.processFrame(image.timestamp, image.bgr, image.depth, sequence.record(i).rgb_path.filename().string());
+    const io::RgbdFrameRecord& record = sequence.record(i);
+    slam.processFrame(image.timestamp, image.bgr, image.depth, record.rgb_path.filename().string(),
+                      record.depth_timestamp - record.rgb_timestamp);
 
     if ((i + 1) % kCheckpointEvery == 0) io::writeTumTrajectory(out_dir / "CameraTrajectory.txt", slam.cameraTrajectory());
     const auto now = std::chrono::steady_clock::now();

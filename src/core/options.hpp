@@ -70,6 +70,9 @@ struct TrackingOptions {
   // onto them); off by default: on Bonn crowd it helped (ATE 0.55 -> 0.23-0.38 m) but not to the
   // target, and on fr1_desk one deterministic run went from 0.016 to 0.019 m.
   bool still_camera_hypothesis = false;
+  // Re-read keypoint depths where the depth camera saw them when the depth image is not taken at
+  // the RGB image's time (map::compensateDepthDelay), using the constant-velocity motion.
+  bool compensate_depth_delay = true;
 
   static constexpr const char* kSection = "tracking";
   template <class V> void fields(V& v) {
@@ -79,7 +82,7 @@ struct TrackingOptions {
     v("keyframe_tracked_ratio", keyframe_tracked_ratio);
     v("keyframe_translation", keyframe_translation); v("keyframe_rotation_deg", keyframe_rotation_deg);
     v("local_map_keyframes", local_map_keyframes); v("depth_baseline", depth_baseline);
-    v("still_camera_hypothesis", still_camera_hypothesis);
+    v("still_camera_hypothesis", still_camera_hypothesis); v("compensate_depth_delay", compensate_depth_delay);
   }
   void validate() const;
 };
@@ -89,12 +92,17 @@ struct MappingOptions {
   int local_ba_iterations = 10;
   bool local_ba = true;
   double redundant_keyframe_ratio = 0.9;  // culled when this share of its points is seen by >= 3 others
+  // After the last frame: one bundle adjustment over every keyframe and point, so the saved
+  // trajectory does not depend on how far local mapping kept up during the run.
+  bool final_global_ba = true;
+  int global_ba_iterations = 20;
 
   static constexpr const char* kSection = "mapping";
   template <class V> void fields(V& v) {
     v("covisible_for_triangulation", covisible_for_triangulation);
     v("local_ba_iterations", local_ba_iterations); v("local_ba", local_ba);
     v("redundant_keyframe_ratio", redundant_keyframe_ratio);
+    v("final_global_ba", final_global_ba); v("global_ba_iterations", global_ba_iterations);
   }
   void validate() const;
 };

@@ -80,4 +80,45 @@ std::shared_ptr<const FeatureSet> buildFeatureSet(std::vector<cv::KeyPoint> keyp
   return set;
 }
 
+namespace {
+// Depth at an ideal pixel: the depth image is registered to the raw image.
+float depthAtIdealPixel(const PinholeCamera& camera, const cv::Mat& depth_m, const Vec2& uv) {
+  const Vec2 raw = camera.distort(uv);
+  const int x = static_cast<int>(std::lround(raw.x()));
+  const int y = static_cast<int>(std::lround(raw.y()));
+  if (x < 0 || y < 0 || x >= depth_m.cols || y >= depth_m.rows) return -1.0f;
+  return depth_m.at<float>(y, x);
+}
+}  // namespace
+
+std::shared_ptr<const FeatureSet> compensateDepthDelay(const FeatureSet& features, const PinholeCamera& camera,
+                                                       const cv::Mat& depth_m, const SE3& T_rgb_depth,
+                                                       double min_depth, double max_depth, double tolerance_px) {
+  auto set = std::make_shared<FeatureSet>(features);
+  if (depth_m.empty()) return set;
+  constexpr int kIterations = 4;
+  for (size_t i = 0; i < features.size(); ++i) {
+    set->depth[i] = -1.0f;
+    const Vec2& uv = features.uv[i];
+    Vec2 uv_depth = uv;
+    double z_rgb = -1.0;
+    bool settled = false;
+    for (int it = 0; it < kIterations; ++it) {
+      const float d = depthAtIdealPixel(camera, depth_m, uv_depth);
+      if (!(d >= min_depth && d <= max_depth)) break;
+      const Vec3 p_rgb = T_rgb_depth * camera.backProject(uv_depth, d);
+      if (p_rgb.z() <= 0) break;
+      const Vec2 residual = uv - camera.project(p_rgb);
+      z_rgb = p_rgb.z();
+      if (residual.norm() < tolerance_px) {
+        settled = true;
+        break;
+      }
+      uv_depth += residual;
+    }
+    if (settled && z_rgb >= min_depth && z_rgb <= max_depth) set->depth[i] = static_cast<float>(z_rgb);
+  }
+  return set;
+}
+
 }  // namespace desslam::map

@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include "core/camera.hpp"
+#include "core/se3.hpp"
 #include "core/types.hpp"
 #include "feature/orb_extractor.hpp"
 
@@ -63,5 +64,16 @@ std::shared_ptr<const FeatureSet> buildFeatureSet(std::vector<cv::KeyPoint> keyp
                                                   const PinholeCamera& camera, const cv::Mat& depth_m,
                                                   std::shared_ptr<const feature::ScalePyramid> pyramid,
                                                   double min_depth, double max_depth);
+
+// RGB and depth streams of many sensors are not triggered together (TUM fr1: up to +-20 ms), so
+// during fast motion the depth read at a keypoint belongs to a slightly different surface point
+// (1 m/s x 15 ms = 1.5 cm). Given T_rgb_depth, the camera at the RGB time from the camera at the
+// depth time (from the motion model), each keypoint's depth is re-read where the depth camera saw
+// the keypoint's surface point: a fixed-point search u_d <- u_d + (u - project(T_rgb_depth *
+// backProject(u_d, D(u_d)))). A keypoint whose search does not settle within `tolerance_px` (a
+// depth edge) loses its depth rather than keep a wrong one. Returns a copy with the new depths.
+std::shared_ptr<const FeatureSet> compensateDepthDelay(const FeatureSet& features, const PinholeCamera& camera,
+                                                       const cv::Mat& depth_m, const SE3& T_rgb_depth,
+                                                       double min_depth, double max_depth, double tolerance_px = 0.5);
 
 }  // namespace desslam::map

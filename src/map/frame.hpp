@@ -26,6 +26,7 @@ struct FeatureMatch {
 struct Frame {
   uint64_t id = 0;
   Timestamp timestamp = 0;
+  double depth_time_offset = 0;       // seconds the depth image was taken after the RGB image
   std::string image_name;
   std::shared_ptr<const FeatureSet> features;
   cv::Mat depth;                      // CV_32F metres (shared with the caller, not copied)

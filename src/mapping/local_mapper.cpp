@@ -9,6 +9,9 @@
 
 #include <Eigen/SVD>
 
+#include <set>
+
+#include "mapping/map_bundle_adjustment.hpp"
 #include "optim/bundle_adjustment.hpp"
 
 namespace desslam::mapping {
@@ -251,95 +254,60 @@ void LocalMapper::fuseWithNeighbours(map::Keyframe* kf) {
 }
 
 void LocalMapper::localBundleAdjustment(map::Keyframe* kf, const std::atomic<bool>* abort_ba) {
-  std::vector<map::Keyframe*> keyframes;  // local first, then fixed
-  std::vector<map::MapPoint*> points;
-  std::vector<optim::BaKeyframe> ba_keyframes;
-  std::vector<optim::BaPoint> ba_points;
-  std::vector<optim::BaObservation> ba_observations;
+  MapBaProblem problem;
   {
     std::shared_lock lock(map_.mutex());
-    std::map<uint64_t, int> kf_index;
-    keyframes.push_back(kf);
+    std::vector<map::Keyframe*> keyframes{kf};  // local first, then fixed
     for (map::Keyframe* nb : map::bestCovisibles(kf, 0)) {
       if (keyframes.size() >= kMaxLocalKeyframes) break;
       keyframes.push_back(nb);
     }
     const size_t local_count = keyframes.size();
-    for (size_t i = 0; i < keyframes.size(); ++i) kf_index[keyframes[i]->id] = static_cast<int>(i);
-
-    std::map<uint64_t, map::MapPoint*> unique_points;
-    for (size_t i = 0; i < local_count; ++i)
-      for (map::MapPoint* p : keyframes[i]->points)
-        if (p != nullptr && !p->bad) unique_points.emplace(p->id, p);
+    std::set<uint64_t> local_ids;
+    for (map::Keyframe* k : keyframes) local_ids.insert(k->id);
     // Keyframes outside the local window that see local points hold the gauge, fixed.
     std::map<uint64_t, std::pair<map::Keyframe*, int>> fixed_votes;
-    for (auto& [pid, p] : unique_points)
-      for (auto& [kid, obs] : p->observations)
-        if (kf_index.count(kid) == 0 && !obs.first->bad) {
-          auto& v = fixed_votes[kid];
-          v.first = obs.first;
-          ++v.second;
-        }
+    std::set<uint64_t> seen_points;
+    for (size_t i = 0; i < local_count; ++i)
+      for (map::MapPoint* p : keyframes[i]->points) {
+        if (p == nullptr || p->bad || !seen_points.insert(p->id).second) continue;
+        for (auto& [kid, obs] : p->observations)
+          if (local_ids.count(kid) == 0 && !obs.first->bad) {
+            auto& v = fixed_votes[kid];
+            v.first = obs.first;
+            ++v.second;
+          }
+      }
     std::vector<std::pair<int, map::Keyframe*>> fixed;
     for (auto& [kid, v] : fixed_votes) fixed.emplace_back(v.second, v.first);
     std::sort(fixed.begin(), fixed.end(),
               [](const auto& a, const auto& b) { return a.first != b.first ? a.first > b.first : a.second->id < b.second->id; });
     for (auto& [votes, fkf] : fixed) {
       if (keyframes.size() - local_count >= kMaxFixedKeyframes) break;
-      kf_index[fkf->id] = static_cast<int>(keyframes.size());
       keyframes.push_back(fkf);
     }
-    for (size_t i = 0; i < keyframes.size(); ++i)
-      ba_keyframes.push_back({keyframes[i]->T_c_w, i >= local_count || keyframes[i]->id == 0});
+    std::vector<bool> is_fixed(keyframes.size());
+    for (size_t i = 0; i < keyframes.size(); ++i) is_fixed[i] = i >= local_count || keyframes[i]->id == 0;
     // With nothing fixed (early map) the oldest keyframe holds the gauge.
-    if (std::none_of(ba_keyframes.begin(), ba_keyframes.end(), [](const auto& k) { return k.fixed; })) {
+    if (std::none_of(is_fixed.begin(), is_fixed.end(), [](bool f) { return f; })) {
       auto oldest = std::min_element(keyframes.begin(), keyframes.end(),
                                      [](const map::Keyframe* a, const map::Keyframe* b) { return a->id < b->id; });
-      ba_keyframes[oldest - keyframes.begin()].fixed = true;
+      is_fixed[oldest - keyframes.begin()] = true;
     }
-    if (ba_keyframes.size() < 2) return;
-
-    for (auto& [pid, p] : unique_points) {
-      const int point_index = static_cast<int>(points.size());
-      points.push_back(p);
-      ba_points.push_back({p->position});
-      for (auto& [kid, obs] : p->observations) {
-        auto it = kf_index.find(kid);
-        if (it == kf_index.end()) continue;
-        const map::FeatureSet& f = *obs.first->features;
-        const int i = obs.second;
-        optim::BaObservation o;
-        o.keyframe = it->second;
-        o.point = point_index;
-        o.obs.uv = f.uv[i];
-        o.obs.depth = f.hasDepth(i) ? f.depth[i] : -1.0;
-        o.obs.inv_sigma2 = f.pyramid->inv_sigma2[f.level(i)];
-        ba_observations.push_back(o);
-      }
-    }
+    if (keyframes.size() < 2) return;
+    problem = buildMapBaProblem(keyframes, is_fixed);
   }
 
   optim::BundleAdjustmentOptions ba;
   ba.bf = bf_;
   ba.iterations = options_.mapping.local_ba_iterations;
-  const bool finished = optim::bundleAdjust(camera_, ba_keyframes, ba_points, ba_observations, ba, abort_ba);
+  const bool finished = optim::bundleAdjust(camera_, problem.ba_keyframes, problem.ba_points,
+                                            problem.ba_observations, ba, abort_ba);
   ++stats_.ba_runs;
   if (!finished) ++stats_.ba_aborted;
 
   std::unique_lock lock(map_.mutex());
-  for (const optim::BaObservation& o : ba_observations) {
-    if (!o.outlier) continue;
-    map::MapPoint* p = points[o.point];
-    map::Keyframe* k = keyframes[o.keyframe];
-    if (!p->bad) map::eraseObservation(map_, p, k);
-  }
-  for (size_t i = 0; i < keyframes.size(); ++i)
-    if (!ba_keyframes[i].fixed && !keyframes[i]->bad) keyframes[i]->T_c_w = ba_keyframes[i].T_c_w;
-  for (size_t i = 0; i < points.size(); ++i) {
-    if (points[i]->bad) continue;
-    points[i]->position = ba_points[i].p_w;
-    map::updateNormalAndDepth(points[i]);
-  }
+  applyMapBaResult(map_, problem);
 }
 
 void LocalMapper::cullRedundantKeyframes(map::Keyframe* kf) {

@@ -1,5 +1,7 @@
 #include "system/slam_system.hpp"
 
+#include "mapping/map_bundle_adjustment.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <mutex>
@@ -103,7 +105,7 @@ cv::Mat SlamSystem::maskFor(uint64_t frame_id, const cv::Mat& depth, FrameStats&
 }
 
 void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv::Mat& depth,
-                              const std::string& image_name) {
+                              const std::string& image_name, double depth_time_offset) {
   const auto start = std::chrono::steady_clock::now();
   FrameStats stats;
   const uint64_t frame_id = next_frame_id_++;
@@ -121,6 +123,7 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
                                        options_.tracking.min_depth, options_.tracking.max_depth);
   map::Frame frame(frame_id, timestamp, image_name, std::move(features));
   frame.depth = depth;
+  frame.depth_time_offset = depth_time_offset;
   stats.features = static_cast<int>(frame.features->size());
   stats.extraction_ms = millisecondsSince(start);
 
@@ -207,6 +210,13 @@ void SlamSystem::finish() {
   finished_ = true;
   if (semantic_) semantic_->stop();
   if (mapping_thread_) mapping_thread_->stop();
+  if (options_.mapping.final_global_ba) {
+    optim::BundleAdjustmentOptions ba;
+    ba.bf = camera_.fx() * options_.tracking.depth_baseline;
+    ba.iterations = options_.mapping.global_ba_iterations;
+    ba.threads = 2;  // nothing else runs now but the dense thread finishing its queue
+    final_ba_ = mapping::globalBundleAdjustment(map_, camera_, ba);
+  }
   if (dense_) dense_->waitUntilIdle();
 }
 
@@ -293,6 +303,10 @@ nlohmann::json SlamSystem::statistics() const {
                           {"local_ba", summarizeMilliseconds(ms.ba_ms)},
                           {"cull_keyframes", summarizeMilliseconds(ms.cull_keyframes_ms)},
                           {"per_keyframe", summarizeMilliseconds(ms.total_ms)}}}};
+  if (options_.mapping.final_global_ba)
+    j["final_global_ba"] = {{"keyframes", final_ba_.keyframes}, {"points", final_ba_.points},
+                            {"observations", final_ba_.observations}, {"outliers", final_ba_.outliers},
+                            {"completed", final_ba_.completed}, {"seconds", final_ba_.seconds}};
   j["timings_ms"] = {{"orb_extraction", summarizeMilliseconds(extraction)},
                      {"mask_wait", summarizeMilliseconds(mask_wait)},
                      {"segmentation", summarizeMilliseconds(segmentation)},

@@ -22,6 +22,7 @@
 #include "feature/orb_extractor.hpp"
 #include "map/map.hpp"
 #include "mapping/local_mapper.hpp"
+#include "mapping/map_bundle_adjustment.hpp"
 #include "tracking/tracker.hpp"
 
 namespace desslam::semantic {
@@ -61,7 +62,10 @@ class SlamSystem {
 
   // bgr: CV_8UC3, depth: CV_32F metres; neither is modified nor copied, so the caller must not
   // write into them afterwards. Frames must come in time order.
-  void processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv::Mat& depth, const std::string& image_name);
+  // depth_time_offset: seconds the depth image was taken after the RGB image (TUM: the two
+  // timestamps' difference); tracking compensates it during fast motion.
+  void processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv::Mat& depth, const std::string& image_name,
+                    double depth_time_offset = 0);
   // Waits for mapping to finish its queue and stops the threads. Idempotent.
   void finish();
 
@@ -109,6 +113,7 @@ class SlamSystem {
   std::vector<FrameStats> frames_;
   uint64_t next_frame_id_ = 0;
   bool finished_ = false;
+  mapping::GlobalBaResult final_ba_;  // the bundle adjustment finish() runs (empty when off)
 };
 
 // Median and 95th percentile of a series (0 when empty).

@@ -48,6 +48,13 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle) {
     last_frame_.T_c_w = last_T_c_r_ * map::keyframeTcw(last_reference_);
   }
 
+  if (options_.tracking.compensate_depth_delay && velocity_ && std::abs(frame.depth_time_offset) > 1e-4) {
+    // Constant velocity: the camera at the depth image's time, seen from the RGB image's time.
+    const SE3 T_rgb_depth = motionOver(-frame.depth_time_offset);
+    frame.features = map::compensateDepthDelay(*frame.features, camera_, frame.depth, T_rgb_depth,
+                                               options_.tracking.min_depth, options_.tracking.max_depth);
+  }
+
   bool ok = false;
   const bool had_motion = state_ == TrackingState::kOk && velocity_.has_value();
   if (had_motion) {
@@ -64,7 +71,7 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle) {
   const bool use_prediction = !ok && had_motion && masked_features_pending;
   if (!ok) {
     frame.clearMatches();
-    frame.T_c_w = velocity_ ? *velocity_ * last_frame_.T_c_w : last_frame_.T_c_w;
+    frame.T_c_w = velocity_ ? motionOver(frame.timestamp - last_frame_.timestamp) * last_frame_.T_c_w : last_frame_.T_c_w;
   }
   if (stage1_enabled_) applyStage1(frame, outcome);
   int inliers = 0;
@@ -88,6 +95,7 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle) {
   frame.has_pose = true;
   outcome.tracked = true;
   velocity_ = frame.T_c_w * last_frame_.T_c_w.inverse();
+  velocity_interval_s_ = frame.timestamp - last_frame_.timestamp;
   if (needKeyframe(frame, inliers, mapping_idle)) outcome.new_keyframe = createKeyframe(frame);
 
   {
@@ -193,7 +201,8 @@ bool Tracker::trackWithMotionModel(map::Frame& frame) {
     }
     return matches < kMinMotionMatches ? 0 : optimizeFramePose(f);
   };
-  int inliers = attempt(frame, *velocity_ * last_frame_.T_c_w);
+  // Constant velocity in time, not per frame: a dropped frame doubles the motion to predict.
+  int inliers = attempt(frame, motionOver(frame.timestamp - last_frame_.timestamp) * last_frame_.T_c_w);
   // People walking past a camera that stops can hold a constant-velocity prediction on their
   // motion (their features sit where the prediction looks). The constant-position hypothesis
   // competes whenever the velocity is not negligible; the one with more inliers wins.
@@ -207,6 +216,13 @@ bool Tracker::trackWithMotionModel(map::Frame& frame) {
     }
   }
   return inliers >= kMinMapInliersStep;
+}
+
+SE3 Tracker::motionOver(double seconds) const {
+  if (!velocity_) return SE3::identity();
+  // A non-positive interval (equal timestamps) cannot scale the velocity: use it as it is.
+  if (velocity_interval_s_ <= 1e-6) return *velocity_;
+  return SE3::exp(velocity_->log() * (seconds / velocity_interval_s_));
 }
 
 bool Tracker::trackReferenceKeyframe(map::Frame& frame) { return trackKeyframe(frame, reference_keyframe_); }

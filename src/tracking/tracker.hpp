@@ -56,6 +56,8 @@ class Tracker {
   bool initialize(map::Frame& frame, TrackOutcome& outcome);
   bool trackWithMotionModel(map::Frame& frame);
   bool trackReferenceKeyframe(map::Frame& frame);
+  // The camera motion T_later_earlier over `seconds` at the current velocity (identity without one).
+  SE3 motionOver(double seconds) const;
   // Descriptor matching against one keyframe's map points, then pose-only optimisation.
   bool trackKeyframe(map::Frame& frame, map::Keyframe* keyframe);
   // When lost: the newest keyframes, one after another (relocalisation light).
@@ -91,6 +93,7 @@ class Tracker {
   const map::Keyframe* last_reference_ = nullptr;  // last_frame_'s reference keyframe
   SE3 last_T_c_r_;
   std::optional<SE3> velocity_;  // T_current_last of the previous step
+  double velocity_interval_s_ = 0;  // the time that step took
   map::Keyframe* reference_keyframe_ = nullptr;
   map::Keyframe* last_keyframe_ = nullptr;
   uint64_t last_keyframe_frame_id_ = 0;
