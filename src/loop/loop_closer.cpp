@@ -7,6 +7,7 @@
 
 #include "matching/matcher.hpp"
 #include "optim/bundle_adjustment.hpp"
+#include "optim/map_bundle_adjustment.hpp"
 #include "optim/pose_graph.hpp"
 
 namespace desslam::loop {
@@ -327,43 +328,18 @@ void LoopCloser::waitForGlobalBa() {
 
 void LoopCloser::runGlobalBa(uint64_t newest_keyframe) {
   const auto start = Clock::now();
-  std::vector<map::Keyframe*> keyframes;
-  std::vector<map::MapPoint*> points;
-  std::vector<optim::BaKeyframe> ba_keyframes;
-  std::vector<optim::BaPoint> ba_points;
-  std::vector<optim::BaObservation> ba_observations;
+  optim::MapBaProblem problem;
   {
     std::shared_lock lock(map_.mutex());
-    std::map<uint64_t, int> index;
-    for (map::Keyframe* k : map_.keyframes()) {
-      index[k->id] = static_cast<int>(keyframes.size());
-      keyframes.push_back(k);
-      ba_keyframes.push_back({k->T_c_w, k->id == 0});
-    }
-    if (!keyframes.empty() && std::none_of(ba_keyframes.begin(), ba_keyframes.end(), [](auto& k) { return k.fixed; }))
-      ba_keyframes.front().fixed = true;
-    for (map::MapPoint* p : map_.points()) {
-      const int point_index = static_cast<int>(points.size());
-      bool observed = false;
-      for (auto& [kid, obs] : p->observations) {
-        auto it = index.find(kid);
-        if (it == index.end()) continue;
-        const map::FeatureSet& f = *obs.first->features;
-        const int i = obs.second;
-        optim::BaObservation o;
-        o.keyframe = it->second;
-        o.point = point_index;
-        o.obs.uv = f.uv[i];
-        o.obs.depth = f.hasDepth(i) ? f.depth[i] : -1.0;
-        o.obs.inv_sigma2 = f.pyramid->inv_sigma2[f.level(i)];
-        ba_observations.push_back(o);
-        observed = true;
-      }
-      if (!observed) continue;
-      points.push_back(p);
-      ba_points.push_back({p->position});
-    }
+    const std::vector<map::Keyframe*> all = map_.keyframes();  // by id: the map's origin first
+    std::vector<bool> fixed(all.size(), false);
+    if (!fixed.empty()) fixed[0] = true;
+    problem = optim::buildMapBaProblem(all, fixed);
   }
+  const std::vector<map::Keyframe*>& keyframes = problem.keyframes;
+  const std::vector<map::MapPoint*>& points = problem.points;
+  std::vector<optim::BaKeyframe>& ba_keyframes = problem.ba_keyframes;
+  std::vector<optim::BaPoint>& ba_points = problem.ba_points;
   {
     std::lock_guard s(stats_mutex_);
     ++stats_.global_ba_runs;
@@ -373,7 +349,7 @@ void LoopCloser::runGlobalBa(uint64_t newest_keyframe) {
     optim::BundleAdjustmentOptions ba;
     ba.bf = bf_;
     ba.iterations = options_.loop.global_ba_iterations;
-    finished = optim::bundleAdjust(camera_, ba_keyframes, ba_points, ba_observations, ba, &global_ba_abort_);
+    finished = optim::bundleAdjust(camera_, ba_keyframes, ba_points, problem.ba_observations, ba, &global_ba_abort_);
   }
   if (finished && !global_ba_abort_) {
     std::lock_guard correction(correction_mutex_);

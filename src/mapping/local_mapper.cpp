@@ -11,7 +11,7 @@
 
 #include <set>
 
-#include "mapping/map_bundle_adjustment.hpp"
+#include "optim/map_bundle_adjustment.hpp"
 #include "optim/bundle_adjustment.hpp"
 
 namespace desslam::mapping {
@@ -51,8 +51,9 @@ Vec3 triangulate(const Vec3& xn1, const Vec3& xn2, const SE3& T1, const SE3& T2)
 }
 }  // namespace
 
-LocalMapper::LocalMapper(const SystemOptions& options, const PinholeCamera& camera, map::Map& map)
-    : options_(options), camera_(camera), map_(map), bf_(camera.fx() * options.tracking.depth_baseline) {
+LocalMapper::LocalMapper(const SystemOptions& options, const PinholeCamera& camera, map::Map& map,
+                         loop::KeyframeDatabase* database)
+    : options_(options), camera_(camera), map_(map), database_(database), bf_(camera.fx() * options.tracking.depth_baseline) {
   matcher_options_.bf = bf_;
 }
 
@@ -66,6 +67,7 @@ void LocalMapper::process(map::Keyframe* kf, const std::atomic<bool>* abort_ba) 
     step = now;
   };
   insertKeyframe(kf);
+  if (database_ != nullptr) database_->add(kf);  // encodes outside the Map lock
   lap(stats_.insert_ms);
   cullRecentPoints(kf);
   lap(stats_.cull_points_ms);
@@ -254,7 +256,7 @@ void LocalMapper::fuseWithNeighbours(map::Keyframe* kf) {
 }
 
 void LocalMapper::localBundleAdjustment(map::Keyframe* kf, const std::atomic<bool>* abort_ba) {
-  MapBaProblem problem;
+  optim::MapBaProblem problem;
   {
     std::shared_lock lock(map_.mutex());
     std::vector<map::Keyframe*> keyframes{kf};  // local first, then fixed
@@ -295,7 +297,7 @@ void LocalMapper::localBundleAdjustment(map::Keyframe* kf, const std::atomic<boo
       is_fixed[oldest - keyframes.begin()] = true;
     }
     if (keyframes.size() < 2) return;
-    problem = buildMapBaProblem(keyframes, is_fixed);
+    problem = optim::buildMapBaProblem(keyframes, is_fixed);
   }
 
   optim::BundleAdjustmentOptions ba;
@@ -307,7 +309,7 @@ void LocalMapper::localBundleAdjustment(map::Keyframe* kf, const std::atomic<boo
   if (!finished) ++stats_.ba_aborted;
 
   std::unique_lock lock(map_.mutex());
-  applyMapBaResult(map_, problem);
+  optim::applyMapBaResult(map_, problem);
 }
 
 void LocalMapper::cullRedundantKeyframes(map::Keyframe* kf) {
@@ -334,12 +336,17 @@ void LocalMapper::cullRedundantKeyframes(map::Keyframe* kf) {
     }
     if (considered > 0 && redundant > options_.mapping.redundant_keyframe_ratio * considered) {
       map_.setKeyframeBad(candidate);
+      if (database_ != nullptr) database_->erase(candidate->id);
       ++stats_.keyframes_culled;
     }
   }
 }
 
-LocalMappingThread::LocalMappingThread(LocalMapper& mapper) : mapper_(mapper), worker_([this] { run(); }) {}
+LocalMappingThread::LocalMappingThread(LocalMapper& mapper, loop::MappingPause* pause,
+                                       std::function<void(map::Keyframe*)> on_processed)
+    : mapper_(mapper), pause_(pause), on_processed_(std::move(on_processed)), worker_([this] { run(); }) {
+  if (pause_ != nullptr) pause_->setAbortFlag(&abort_ba_);
+}
 
 LocalMappingThread::~LocalMappingThread() { stop(); }
 
@@ -361,8 +368,11 @@ void LocalMappingThread::stop() {
 
 void LocalMappingThread::run() {
   while (auto kf = queue_.pop()) {
+    if (pause_ != nullptr) pause_->enter();
     abort_ba_ = queue_.size() > 0;
     mapper_.process(*kf, &abort_ba_);
+    if (pause_ != nullptr) pause_->leave();
+    if (on_processed_) on_processed_(*kf);
     {
       std::lock_guard lock(idle_mutex_);
       --pending_;

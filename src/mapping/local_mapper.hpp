@@ -10,6 +10,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <functional>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -17,6 +18,8 @@
 #include "core/bounded_queue.hpp"
 #include "core/camera.hpp"
 #include "core/options.hpp"
+#include "loop/keyframe_database.hpp"
+#include "loop/loop_closer.hpp"
 #include "map/map.hpp"
 #include "matching/matcher.hpp"
 
@@ -35,7 +38,10 @@ struct LocalMappingStats {
 
 class LocalMapper {
  public:
-  LocalMapper(const SystemOptions& options, const PinholeCamera& camera, map::Map& map);
+  // database (may be null): the keyframe BoW database kept in step with the map (keyframes added
+  // after insertion, removed when culled) for relocalisation and loop detection.
+  LocalMapper(const SystemOptions& options, const PinholeCamera& camera, map::Map& map,
+              loop::KeyframeDatabase* database = nullptr);
 
   // abort_ba (may be null) stops bundle adjustment early when set (a newer keyframe is waiting).
   void process(map::Keyframe* kf, const std::atomic<bool>* abort_ba);
@@ -52,6 +58,7 @@ class LocalMapper {
   SystemOptions options_;
   PinholeCamera camera_;
   map::Map& map_;
+  loop::KeyframeDatabase* database_;
   double bf_;
   matching::MatcherOptions matcher_options_;
   std::vector<map::MapPoint*> recent_points_;  // created recently, still on probation
@@ -61,9 +68,13 @@ class LocalMapper {
 // The local mapping thread: consumes keyframes from tracking in order.
 // Queue: capacity 8, blocking (tracking waits only if mapping falls 8 keyframes behind).
 // idle() is true when no keyframe is queued or being processed (a keyframe criterion).
+// pause (may be null): loop closing stops mapping between keyframes through it (each keyframe is
+// processed between pause->enter() and pause->leave()). on_processed (may be empty) receives each
+// keyframe after that, outside the pause (e.g. the loop-closing queue).
 class LocalMappingThread {
  public:
-  LocalMappingThread(LocalMapper& mapper);
+  explicit LocalMappingThread(LocalMapper& mapper, loop::MappingPause* pause = nullptr,
+                              std::function<void(map::Keyframe*)> on_processed = {});
   ~LocalMappingThread();
   void push(map::Keyframe* kf);
   bool idle() const { return pending_.load() == 0; }
@@ -74,6 +85,8 @@ class LocalMappingThread {
  private:
   void run();
   LocalMapper& mapper_;
+  loop::MappingPause* pause_;
+  std::function<void(map::Keyframe*)> on_processed_;
   BoundedQueue<map::Keyframe*> queue_{8, QueueFullPolicy::kBlock};
   std::atomic<int> pending_{0};
   std::atomic<bool> abort_ba_{false};

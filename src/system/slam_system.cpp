@@ -1,7 +1,5 @@
 #include "system/slam_system.hpp"
 
-#include "mapping/map_bundle_adjustment.hpp"
-
 #include <algorithm>
 #include <chrono>
 #include <mutex>
@@ -15,6 +13,8 @@
 #include "dense/map_export.hpp"
 #include "dense/memory_usage.hpp"
 #include "dynamic/mask_utils.hpp"
+#include "loop/vocabulary_location.hpp"
+#include "optim/map_bundle_adjustment.hpp"
 #include "semantic/semantic_thread.hpp"
 #include "semantic/segmenter.hpp"
 #include "system/debug_view.hpp"
@@ -41,6 +41,13 @@ constexpr size_t kRecentFrames = 30;        // history for carrying masks forwar
 constexpr int kDynamicFeatureRadius = 12;   // pixels left out of the dense map around a dynamic feature
 
 bool usesMask(const std::string& mode) { return mode == "semantic" || mode == "full"; }
+
+std::unique_ptr<loop::KeyframeDatabase> makeKeyframeDatabase(const SystemOptions& options) {
+  if (!options.relocalisation.enabled && !options.loop.enabled) return nullptr;
+  options.relocalisation.validate();  // names a bad key before the vocabulary is looked for
+  return std::make_unique<loop::KeyframeDatabase>(loop::loadVocabulary(options.relocalisation.vocabulary),
+                                                  options.relocalisation.direct_index_level);
+}
 }  // namespace
 
 SlamSystem::SlamSystem(const SystemOptions& options, const RunSettings& settings)
@@ -49,9 +56,14 @@ SlamSystem::SlamSystem(const SystemOptions& options, const RunSettings& settings
       camera_(options.camera),
       extractor_(options.orb),
       pyramid_(std::make_shared<feature::ScalePyramid>(extractor_.pyramid())),
-      tracker_(options, camera_, map_),
-      mapper_(options, camera_, map_) {
+      keyframe_db_(makeKeyframeDatabase(options)),
+      tracker_(options, camera_, map_, keyframe_db_.get()),
+      mapper_(options, camera_, map_, keyframe_db_.get()) {
   options_.validate();
+  if (options_.loop.enabled)
+    loop_closer_ = std::make_unique<loop::LoopCloser>(
+        options_, camera_, map_, *keyframe_db_, settings_.deterministic ? nullptr : &mapping_pause_,
+        settings_.deterministic ? loop::GlobalBaMode::kInline : loop::GlobalBaMode::kThread);
   if (usesMask(options_.dynamic.mode)) {
     std::unique_ptr<semantic::Segmenter> segmenter = semantic::makeSegmenter(options_.semantic);
     if (segmenter == nullptr)
@@ -61,7 +73,14 @@ SlamSystem::SlamSystem(const SystemOptions& options, const RunSettings& settings
     semantic_ = std::make_unique<semantic::SemanticThread>(
         std::move(segmenter), settings_.realtime ? semantic::SemanticMode::kRealtime : semantic::SemanticMode::kOffline);
   }
-  if (!settings_.deterministic) mapping_thread_ = std::make_unique<mapping::LocalMappingThread>(mapper_);
+  if (!settings_.deterministic) {
+    std::function<void(map::Keyframe*)> to_loop_closing;
+    if (loop_closer_) {
+      loop_thread_ = std::make_unique<loop::LoopClosingThread>(*loop_closer_, options_.loop.queue_capacity);
+      to_loop_closing = [this](map::Keyframe* kf) { loop_thread_->push(kf); };
+    }
+    mapping_thread_ = std::make_unique<mapping::LocalMappingThread>(mapper_, &mapping_pause_, std::move(to_loop_closing));
+  }
   if (options_.dense.enabled)
     dense_ = std::make_unique<dense::DenseMappingThread>(
         options_.dense, camera_, settings_.realtime ? QueueFullPolicy::kDropOldest : QueueFullPolicy::kBlock);
@@ -160,8 +179,10 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
       if (!settings_.realtime) mapping_thread_->waitUntilIdle();
       mapping_thread_->push(outcome.new_keyframe);
     }
-    else
+    else {
       mapper_.process(outcome.new_keyframe, nullptr);
+      if (loop_closer_) loop_closer_->process(outcome.new_keyframe);
+    }
   }
   if (!settings_.debug_images_dir.empty()) {
     const std::filesystem::path path = settings_.debug_images_dir / image_name;
@@ -210,12 +231,14 @@ void SlamSystem::finish() {
   finished_ = true;
   if (semantic_) semantic_->stop();
   if (mapping_thread_) mapping_thread_->stop();
+  if (loop_thread_) loop_thread_->stop();  // drains its queue and waits for a global BA
+  if (loop_closer_) loop_closer_->waitForGlobalBa();
   if (options_.mapping.final_global_ba) {
     optim::BundleAdjustmentOptions ba;
     ba.bf = camera_.fx() * options_.tracking.depth_baseline;
     ba.iterations = options_.mapping.global_ba_iterations;
     ba.threads = 2;  // nothing else runs now but the dense thread finishing its queue
-    final_ba_ = mapping::globalBundleAdjustment(map_, camera_, ba);
+    final_ba_ = optim::globalBundleAdjustment(map_, camera_, ba);
   }
   if (dense_) dense_->waitUntilIdle();
 }
@@ -274,7 +297,9 @@ nlohmann::json SlamSystem::statistics() const {
     std::shared_lock lock(map_.mutex());
     j["counts"] = {{"frames", frames_.size()},
                    {"frames_tracked", tracked},
-                   {"tracking_losses", tracker_.lostFrames()},
+                   {"frames_lost", tracker_.lostFrames()},
+                   {"tracking_losses", tracker_.losses()},
+                   {"relocalisations", tracker_.relocalisations()},
                    {"keyframes", map_.keyframeCount()},
                    {"keyframes_created", map_.allKeyframes().size()},
                    {"map_points", map_.pointCount()}};
@@ -303,6 +328,24 @@ nlohmann::json SlamSystem::statistics() const {
                           {"local_ba", summarizeMilliseconds(ms.ba_ms)},
                           {"cull_keyframes", summarizeMilliseconds(ms.cull_keyframes_ms)},
                           {"per_keyframe", summarizeMilliseconds(ms.total_ms)}}}};
+  if (loop_closer_) {
+    const loop::LoopClosingStats ls = loop_closer_->stats();
+    j["loop_closing"] = {{"keyframes_checked", ls.detection.keyframes_checked},
+                         {"consistent_candidates", ls.detection.consistent_candidates},
+                         {"rejected_by_geometry", ls.detection.rejected_geometry},
+                         {"loops_detected", ls.loops_detected},
+                         {"loops_closed", ls.loops_closed},
+                         {"loops_skipped", ls.loops_skipped},
+                         {"points_fused", ls.points_fused},
+                         {"global_ba_runs", ls.global_ba_runs},
+                         {"global_ba_applied", ls.global_ba_applied},
+                         {"global_ba_aborted", ls.global_ba_aborted},
+                         {"keyframes_dropped", loop_thread_ ? loop_thread_->dropped() : 0},
+                         {"timings_ms",
+                          {{"correction", summarizeMilliseconds(ls.correction_ms)},
+                           {"pose_graph", summarizeMilliseconds(ls.pose_graph_ms)},
+                           {"global_ba", summarizeMilliseconds(ls.global_ba_ms)}}}};
+  }
   if (options_.mapping.final_global_ba)
     j["final_global_ba"] = {{"keyframes", final_ba_.keyframes}, {"points", final_ba_.points},
                             {"observations", final_ba_.observations}, {"outliers", final_ba_.outliers},

@@ -2,9 +2,9 @@
 // statistics out. Owns the map and every stage.
 //
 // Threads (DESIGN.md): tracking runs on the caller's thread (processFrame); segmentation in the
-// semantic thread; local mapping and dense mapping in their own threads. With `deterministic`,
-// local mapping runs inline after each keyframe and tracking waits for every mask, so two runs
-// give identical trajectories. In real-time mode tracking never waits for the network: a frame
+// semantic thread; local mapping, loop closing (with its global BA) and dense mapping in their
+// own threads. With `deterministic`, local mapping and loop closing run inline after each
+// keyframe and tracking waits for every mask, so two runs give identical trajectories. In real-time mode tracking never waits for the network: a frame
 // without a fresh mask uses the newest one carried forward by depth and camera motion.
 #pragma once
 
@@ -21,8 +21,10 @@
 #include "core/trajectory.hpp"
 #include "feature/orb_extractor.hpp"
 #include "map/map.hpp"
+#include "loop/keyframe_database.hpp"
+#include "loop/loop_closer.hpp"
 #include "mapping/local_mapper.hpp"
-#include "mapping/map_bundle_adjustment.hpp"
+#include "optim/map_bundle_adjustment.hpp"
 #include "tracking/tracker.hpp"
 
 namespace desslam::semantic {
@@ -94,8 +96,14 @@ class SlamSystem {
   feature::OrbExtractor extractor_;
   std::shared_ptr<const feature::ScalePyramid> pyramid_;
   map::Map map_;
+  // Keyframe BoW database (null when relocalisation and loop closing are both off): written by
+  // local mapping, read by tracking's relocaliser and the loop closer (its own lock).
+  std::unique_ptr<loop::KeyframeDatabase> keyframe_db_;
   tracking::Tracker tracker_;
   mapping::LocalMapper mapper_;
+  loop::MappingPause mapping_pause_;                         // loop closing pauses local mapping
+  std::unique_ptr<loop::LoopCloser> loop_closer_;            // null when loop.enabled is false
+  std::unique_ptr<loop::LoopClosingThread> loop_thread_;     // null when deterministic
   std::unique_ptr<mapping::LocalMappingThread> mapping_thread_;  // null when deterministic
   std::unique_ptr<semantic::SemanticThread> semantic_;           // null when no masks are used
   std::unique_ptr<dense::DenseMappingThread> dense_;             // null when dense.enabled is false
@@ -113,7 +121,7 @@ class SlamSystem {
   std::vector<FrameStats> frames_;
   uint64_t next_frame_id_ = 0;
   bool finished_ = false;
-  mapping::GlobalBaResult final_ba_;  // the bundle adjustment finish() runs (empty when off)
+  optim::GlobalBaResult final_ba_;  // the bundle adjustment finish() runs (empty when off)
 };
 
 // Median and 95th percentile of a series (0 when empty).

@@ -28,8 +28,11 @@ constexpr double kStillRotation = 0.5 * M_PI / 180;  // radians per frame
 // Keyframes keep a half-resolution depth image only when stage 2 will look at it.
 }  // namespace
 
-Tracker::Tracker(const SystemOptions& options, const PinholeCamera& camera, map::Map& map)
+Tracker::Tracker(const SystemOptions& options, const PinholeCamera& camera, map::Map& map,
+                 const loop::KeyframeDatabase* database)
     : options_(options), camera_(camera), map_(map), bf_(camera.fx() * options.tracking.depth_baseline) {
+  if (database != nullptr && options.relocalisation.enabled)
+    relocaliser_.emplace(options.relocalisation, camera_, map_, *database, bf_);
   matcher_options_.bf = bf_;
   const std::string& mode = options.dynamic.mode;
   stage1_enabled_ = stage2_enabled_ = mode == "full" || mode == "geometric";
@@ -62,7 +65,20 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle) {
     outcome.used_motion_model = ok;
   }
   if (!ok) ok = trackReferenceKeyframe(frame);
-  if (!ok && state_ == TrackingState::kLost) ok = trackRecentKeyframes(frame);
+  const bool recovering = state_ == TrackingState::kLost;
+  if (!ok && recovering) {
+    // The place may be anywhere in the map: ask the BoW database; the newest keyframes remain a
+    // fallback (and the only way without a database).
+    if (relocaliser_) {
+      const RelocalisationResult r = relocaliser_->relocalise(frame);
+      if (r.success) {
+        ok = true;
+        reference_keyframe_ = r.keyframe;
+        ++relocalisations_;
+      }
+    }
+    if (!ok) ok = trackRecentKeyframes(frame);
+  }
   // Too few features outside the mask for a first estimate (a person filling the view): fall
   // back on the motion prediction and let stage 1 and the local map decide. Only then: without
   // masked features a failed first estimate means the prediction is not to be trusted.
@@ -73,7 +89,14 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle) {
     frame.clearMatches();
     frame.T_c_w = velocity_ ? motionOver(frame.timestamp - last_frame_.timestamp) * last_frame_.T_c_w : last_frame_.T_c_w;
   }
-  if (stage1_enabled_) applyStage1(frame, outcome);
+  if (stage1_enabled_ && !recovering) {
+    applyStage1(frame, outcome);
+  } else if (stage1_enabled_) {
+    // No tracked frame just before this one to compare with: as for the first frame, masked
+    // features stay out.
+    for (auto& status : frame.status)
+      if (status == map::FeatureStatus::kPendingStage1) status = map::FeatureStatus::kDynamicMask;
+  }
   int inliers = 0;
   if (ok || use_prediction) ok = trackLocalMap(frame, inliers);
   if (ok && stage2_enabled_) {
@@ -84,8 +107,10 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle) {
   outcome.inliers = inliers;
 
   if (!ok) {
+    if (state_ == TrackingState::kOk) ++losses_;
     state_ = TrackingState::kLost;
     velocity_.reset();
+    history_.clear();  // stage 1 must not compare with frames from before the gap
     ++lost_frames_;
     records_.push_back({frame.id, frame.timestamp, nullptr, SE3()});
     return outcome;
@@ -94,8 +119,12 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle) {
   state_ = TrackingState::kOk;
   frame.has_pose = true;
   outcome.tracked = true;
-  velocity_ = frame.T_c_w * last_frame_.T_c_w.inverse();
-  velocity_interval_s_ = frame.timestamp - last_frame_.timestamp;
+  if (recovering) {
+    velocity_.reset();  // the last tracked frame lies before the gap
+  } else {
+    velocity_ = frame.T_c_w * last_frame_.T_c_w.inverse();
+    velocity_interval_s_ = frame.timestamp - last_frame_.timestamp;
+  }
   if (needKeyframe(frame, inliers, mapping_idle)) outcome.new_keyframe = createKeyframe(frame);
 
   {

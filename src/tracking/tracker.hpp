@@ -16,6 +16,7 @@
 #include "map/frame.hpp"
 #include "map/map.hpp"
 #include "matching/matcher.hpp"
+#include "tracking/relocaliser.hpp"
 
 namespace desslam::tracking {
 
@@ -42,7 +43,9 @@ struct TrackOutcome {
 
 class Tracker {
  public:
-  Tracker(const SystemOptions& options, const PinholeCamera& camera, map::Map& map);
+  // database (may be null: no relocalisation): the keyframe BoW database local mapping keeps.
+  Tracker(const SystemOptions& options, const PinholeCamera& camera, map::Map& map,
+          const loop::KeyframeDatabase* database = nullptr);
 
   // frame.features and frame.status are set; writes frame.T_c_w and frame.matches.
   // mapping_idle: local mapping has no keyframe waiting (a keyframe criterion).
@@ -51,6 +54,8 @@ class Tracker {
   TrackingState state() const { return state_; }
   const std::vector<FrameRecord>& records() const { return records_; }
   int lostFrames() const { return lost_frames_; }
+  int losses() const { return losses_; }                    // times tracking went from ok to lost
+  int relocalisations() const { return relocalisations_; }  // times the relocaliser recovered it
 
  private:
   bool initialize(map::Frame& frame, TrackOutcome& outcome);
@@ -103,6 +108,9 @@ class Tracker {
   std::deque<map::Frame> history_;  // recent tracked frames, newest last (stage-1 references)
   std::vector<FrameRecord> records_;
   int lost_frames_ = 0;
+  int losses_ = 0;
+  int relocalisations_ = 0;
+  std::optional<Relocaliser> relocaliser_;
 };
 
 }  // namespace desslam::tracking

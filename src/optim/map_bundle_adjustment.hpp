@@ -1,4 +1,4 @@
-// Bundle adjustment on the shared Map: builds the optim::bundleAdjust problem from a set of
+// Bundle adjustment on the shared Map: builds the bundleAdjust problem from a set of
 // keyframes and writes the result back. Local BA (local_mapper) and global BA (the final one
 // after a run, and loop closing) differ only in which keyframes they pass and which are fixed.
 //
@@ -14,14 +14,14 @@
 #include "map/map.hpp"
 #include "optim/bundle_adjustment.hpp"
 
-namespace desslam::mapping {
+namespace desslam::optim {
 
 struct MapBaProblem {
   std::vector<map::Keyframe*> keyframes;  // same order as ba_keyframes
   std::vector<map::MapPoint*> points;     // same order as ba_points
-  std::vector<optim::BaKeyframe> ba_keyframes;
-  std::vector<optim::BaPoint> ba_points;
-  std::vector<optim::BaObservation> ba_observations;
+  std::vector<BaKeyframe> ba_keyframes;
+  std::vector<BaPoint> ba_points;
+  std::vector<BaObservation> ba_observations;
 };
 
 // keyframes[i] is held constant when fixed[i]. The points are those seen by the free keyframes;
@@ -43,7 +43,7 @@ struct GlobalBaResult {
 // Every keyframe and point of the map; the first keyframe (the map's origin) is fixed. Takes the
 // map lock shared to copy the problem out and exclusively to write it back; solves unlocked.
 GlobalBaResult globalBundleAdjustment(map::Map& map, const PinholeCamera& camera,
-                                      const optim::BundleAdjustmentOptions& options,
+                                      const BundleAdjustmentOptions& options,
                                       const std::atomic<bool>* abort = nullptr);
 
-}  // namespace desslam::mapping
+}  // namespace desslam::optim

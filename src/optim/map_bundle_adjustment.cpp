@@ -1,11 +1,11 @@
-#include "mapping/map_bundle_adjustment.hpp"
+#include "optim/map_bundle_adjustment.hpp"
 
 #include <chrono>
 #include <map>
 #include <mutex>
 #include <shared_mutex>
 
-namespace desslam::mapping {
+namespace desslam::optim {
 
 MapBaProblem buildMapBaProblem(const std::vector<map::Keyframe*>& keyframes, const std::vector<bool>& fixed) {
   MapBaProblem problem;
@@ -31,7 +31,7 @@ MapBaProblem buildMapBaProblem(const std::vector<map::Keyframe*>& keyframes, con
       if (it == kf_index.end()) continue;
       const map::FeatureSet& f = *obs.first->features;
       const int i = obs.second;
-      optim::BaObservation o;
+      BaObservation o;
       o.keyframe = it->second;
       o.point = point_index;
       o.obs.uv = f.uv[i];
@@ -44,7 +44,7 @@ MapBaProblem buildMapBaProblem(const std::vector<map::Keyframe*>& keyframes, con
 }
 
 void applyMapBaResult(map::Map& map, const MapBaProblem& problem) {
-  for (const optim::BaObservation& o : problem.ba_observations) {
+  for (const BaObservation& o : problem.ba_observations) {
     if (!o.outlier) continue;
     map::MapPoint* p = problem.points[o.point];
     map::Keyframe* k = problem.keyframes[o.keyframe];
@@ -61,7 +61,7 @@ void applyMapBaResult(map::Map& map, const MapBaProblem& problem) {
 }
 
 GlobalBaResult globalBundleAdjustment(map::Map& map, const PinholeCamera& camera,
-                                      const optim::BundleAdjustmentOptions& options, const std::atomic<bool>* abort) {
+                                      const BundleAdjustmentOptions& options, const std::atomic<bool>* abort) {
   const auto start = std::chrono::steady_clock::now();
   GlobalBaResult result;
   MapBaProblem problem;
@@ -73,7 +73,7 @@ GlobalBaResult globalBundleAdjustment(map::Map& map, const PinholeCamera& camera
     problem = buildMapBaProblem(keyframes, fixed);
   }
   if (problem.keyframes.size() < 2) return result;
-  result.completed = optim::bundleAdjust(camera, problem.ba_keyframes, problem.ba_points,
+  result.completed = bundleAdjust(camera, problem.ba_keyframes, problem.ba_points,
                                          problem.ba_observations, options, abort);
   {
     std::unique_lock lock(map.mutex());
@@ -87,4 +87,4 @@ GlobalBaResult globalBundleAdjustment(map::Map& map, const PinholeCamera& camera
   return result;
 }
 
-}  // namespace desslam::mapping
+}  // namespace desslam::optim
