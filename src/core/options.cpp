@@ -105,6 +105,7 @@ void DenseOptions::validate() const {
   requireInRange(s, "render_width", render_width, 16, 16384);
   requireInRange(s, "render_height", render_height, 16, 16384);
   requireInRange(s, "min_observations", min_observations, 1, 1000000);
+  requireInRange(s, "carve_tolerance", carve_tolerance, 0.001, 10.0);
 }
 
 void RelocalisationOptions::validate() const {

@@ -188,6 +188,13 @@ struct DenseOptions {
   int render_height = 768;
   // Exported voxels must have been seen by at least this many keyframes (1 = all voxels).
   int min_observations = 1;
+  // Free-space carving: each new keyframe's depth is compared with the voxels already in the map;
+  // a voxel it sees THROUGH (every reading in a 3x3 window more than carve_tolerance beyond it)
+  // gets a miss, and voxels with at least as many misses as observations are left out of the export. The
+  // ghost of a person who walked on is seen through by the keyframes that follow; a static
+  // surface is not (depth checks and masks miss parts of people: dark clothes, limbs).
+  bool carve_free_space = true;
+  double carve_tolerance = 0.05;  // metres
 
   static constexpr const char* kSection = "dense";
   template <class V> void fields(V& v) {
@@ -197,7 +204,8 @@ struct DenseOptions {
     v("octomap_resolution", octomap_resolution); v("exclude_dilation_px", exclude_dilation_px);
     v("depth_edge_ratio", depth_edge_ratio); v("queue_capacity", queue_capacity);
     v("render_width", render_width); v("render_height", render_height);
-    v("min_observations", min_observations);
+    v("min_observations", min_observations); v("carve_free_space", carve_free_space);
+    v("carve_tolerance", carve_tolerance);
   }
   void validate() const;
 };

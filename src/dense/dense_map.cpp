@@ -69,7 +69,7 @@ void DenseCloud::keepOnly(const std::vector<size_t>& indices) {
 }
 
 DenseMap::DenseMap(const DenseOptions& options, const PinholeCamera& camera)
-    : options_(options), back_projector_(std::make_shared<const BackProjector>(options, camera)) {}
+    : options_(options), camera_(camera), back_projector_(std::make_shared<const BackProjector>(options, camera)) {}
 
 uint64_t DenseMap::keyOf(const Vec3& p_w) const {
   const double inv = 1.0 / options_.voxel_size;
@@ -95,9 +95,51 @@ uint32_t DenseMap::registerKeyframe(uint64_t id, Timestamp timestamp, const SE3&
   return index;
 }
 
-void DenseMap::addKeyframe(const DenseKeyframe& keyframe) { integrate((*back_projector_)(keyframe), keyframe.T_w_c); }
+void DenseMap::addKeyframe(const DenseKeyframe& keyframe) {
+  integrate((*back_projector_)(keyframe), keyframe.T_w_c, keyframe.depth);
+}
 
-void DenseMap::integrate(const KeyframeCloud& cloud, const SE3& T_w_c) {
+size_t DenseMap::carve(const cv::Mat& depth, const SE3& T_w_c) {
+  if (depth.empty() || voxels_.empty()) return 0;
+  // Per anchor: camera-from-anchor, so each voxel costs one small matrix product.
+  std::vector<Eigen::Matrix3f> R_c_a(keyframes_.size());
+  std::vector<Eigen::Vector3f> t_c_a(keyframes_.size());
+  const SE3 T_c_w = T_w_c.inverse();
+  for (size_t k = 0; k < keyframes_.size(); ++k) {
+    const SE3 T_c_a = T_c_w * keyframes_[k].T_w_c;
+    R_c_a[k] = T_c_a.rotation().cast<float>();
+    t_c_a[k] = T_c_a.translation().cast<float>();
+  }
+  const float tolerance = static_cast<float>(options_.carve_tolerance);
+  const float min_z = static_cast<float>(options_.min_depth), max_z = static_cast<float>(options_.max_depth);
+  size_t missed = 0;
+  for (Voxel& voxel : voxels_) {
+    const Eigen::Vector3f p_c = R_c_a[voxel.anchor] * voxel.p_anchor + t_c_a[voxel.anchor];
+    if (p_c.z() < min_z || p_c.z() > max_z) continue;
+    const Vec2 uv = camera_.project(p_c.cast<double>());
+    if (!camera_.inImage(uv)) continue;
+    const Vec2 raw = camera_.hasDistortion() ? camera_.distort(uv) : uv;  // depth is registered to the raw image
+    const int x = static_cast<int>(std::lround(raw.x())), y = static_cast<int>(std::lround(raw.y()));
+    if (x < 1 || y < 1 || x >= depth.cols - 1 || y >= depth.rows - 1) continue;
+    // Seen through only if every reading around the pixel lies beyond: a voxel on a silhouette,
+    // a pixel off after projection, would otherwise "see" the background beside it.
+    bool through = depth.at<float>(y, x) > 0;
+    for (int dy = -1; dy <= 1 && through; ++dy)
+      for (int dx = -1; dx <= 1 && through; ++dx) {
+        const float d = depth.at<float>(y + dy, x + dx);
+        if (d > 0 && d <= p_c.z() + tolerance) through = false;
+      }
+    if (through) {
+      ++voxel.misses;
+      ++missed;
+    }
+  }
+  voxel_misses_ += missed;
+  return missed;
+}
+
+void DenseMap::integrate(const KeyframeCloud& cloud, const SE3& T_w_c, const cv::Mat& depth) {
+  if (options_.carve_free_space) carve(depth, T_w_c);
   const uint32_t self = registerKeyframe(cloud.keyframe_id, cloud.timestamp, T_w_c);
   const Rigid to_world(T_w_c);
 
@@ -217,6 +259,7 @@ void DenseMap::mergeVoxel(Voxel& into, const Voxel& from, const std::vector<SE3>
   for (int c = 0; c < 3; ++c) into.rgb[c] = toByte(into.rgb[c] * (1 - w) + from.rgb[c] * w);
   vote(into.label, into.label_votes, from.label, from.label_votes);
   into.observations += from.observations;
+  into.misses += from.misses;
 }
 
 void DenseMap::rekeyMovedAnchors() {
@@ -287,6 +330,7 @@ DenseCloud DenseMap::extract(const PoseMap& T_w_c_by_id) const {
     Vec3 sum_w = Vec3::Zero();
     Vec3 sum_rgb = Vec3::Zero();
     uint32_t observations = 0;
+    uint32_t misses = 0;
     Timestamp first_seen = 0;
     uint8_t label = 0, label_votes = 0;
   };
@@ -306,6 +350,7 @@ DenseCloud DenseMap::extract(const PoseMap& T_w_c_by_id) const {
     m.sum_w += p_w * voxel.observations;
     m.sum_rgb += Vec3(voxel.rgb[0], voxel.rgb[1], voxel.rgb[2]) * voxel.observations;
     m.observations += voxel.observations;
+    m.misses += voxel.misses;
     m.first_seen = std::min(m.first_seen, keyframes_[voxel.anchor].timestamp);
     vote(m.label, m.label_votes, voxel.label, std::max<unsigned>(1, voxel.label_votes));
   }
@@ -314,6 +359,7 @@ DenseCloud DenseMap::extract(const PoseMap& T_w_c_by_id) const {
   DenseCloud out;
   for (const Merged& m : merged) {
     if (m.observations < static_cast<uint32_t>(options_.min_observations)) continue;
+    if (options_.carve_free_space && m.misses >= m.observations) continue;  // seen through as often as seen
     out.points_w.push_back(m.sum_w / m.observations);
     const Vec3 rgb = m.sum_rgb / m.observations;
     out.rgb.push_back({toByte(rgb.x()), toByte(rgb.y()), toByte(rgb.z())});
@@ -395,6 +441,7 @@ DenseMapStats DenseMap::stats() const {
   s.rekeys = rekeys_;
   s.voxels_rekeyed = voxels_rekeyed_;
   s.voxels_merged = voxels_merged_;
+  s.voxel_misses = voxel_misses_;
   return s;
 }
 

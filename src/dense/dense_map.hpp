@@ -46,6 +46,7 @@ using PoseMap = std::map<uint64_t, SE3>;  // keyframe id -> T_w_c
 
 struct DenseMapStats {
   size_t voxels = 0;           // stored voxels
+  size_t voxel_misses = 0;     // carve(): voxel-keyframe pairs seen through, summed
   size_t keyframes = 0;        // keyframes ever added (culled included)
   size_t culled = 0;
   size_t rekeys = 0;           // partial re-keyings triggered by pose updates
@@ -62,7 +63,12 @@ class DenseMap {
   // Integrates a camera-frame cloud made elsewhere (the mapping thread back-projects outside
   // its lock) with pose T_w_c. A keyframe id seen before is integrated again (a new
   // observation) and its pose replaced.
-  void integrate(const KeyframeCloud& cloud, const SE3& T_w_c);
+  // With a depth image (CV_32F metres, the keyframe's raw depth) and dense.carve_free_space, the
+  // voxels already stored are first checked against it (carve()).
+  void integrate(const KeyframeCloud& cloud, const SE3& T_w_c, const cv::Mat& depth = cv::Mat());
+  // Counts a miss for every stored voxel that a camera at T_w_c with this depth image sees
+  // through (see DenseOptions::carve_free_space). Returns the number of voxels missed.
+  size_t carve(const cv::Mat& depth, const SE3& T_w_c);
   // Culled keyframe: its voxels and pose stay (see the top of this file). Unknown ids ignored.
   void removeKeyframe(uint64_t keyframe_id);
   // New poses of keyframes already added; other ids are ignored. May re-key (see above).
@@ -107,6 +113,7 @@ class DenseMap {
     Eigen::Vector3f p_anchor = Eigen::Vector3f::Zero();  // running mean, anchor's camera frame
     uint32_t anchor = 0;        // index into keyframes_
     uint32_t observations = 0;  // keyframes merged in
+    uint32_t misses = 0;        // later keyframes that saw through it (carve())
     std::array<uint8_t, 3> rgb{0, 0, 0};
     uint8_t label = 0;        // Boyer-Moore candidate
     uint8_t label_votes = 0;  // its vote margin
@@ -121,12 +128,13 @@ class DenseMap {
   std::vector<SE3> anchorPoses(const PoseMap& T_w_c_by_id) const;
 
   DenseOptions options_;
+  PinholeCamera camera_;
   std::shared_ptr<const BackProjector> back_projector_;
   std::vector<KeyframeRecord> keyframes_;
   std::unordered_map<uint64_t, uint32_t> keyframe_index_;  // id -> index into keyframes_
   std::vector<Voxel> voxels_;
   std::unordered_map<uint64_t, uint32_t> voxel_index_;  // key -> index into voxels_
-  size_t rekeys_ = 0, voxels_rekeyed_ = 0, voxels_merged_ = 0;
+  size_t rekeys_ = 0, voxels_rekeyed_ = 0, voxels_merged_ = 0, voxel_misses_ = 0;
 };
 
 // Statistical outlier removal on the exported cloud (Open3D's, with DenseOptions'

@@ -51,7 +51,7 @@ void DenseMappingThread::run() {
     const auto merge_start = std::chrono::steady_clock::now();
     applyPendingPoses();
     const auto it = pose_overrides_.find(keyframe.keyframe_id);
-    map_.integrate(cloud, it != pose_overrides_.end() ? it->second : keyframe.T_w_c);
+    map_.integrate(cloud, it != pose_overrides_.end() ? it->second : keyframe.T_w_c, keyframe.depth);
     if (culled_ids_.erase(keyframe.keyframe_id) != 0) map_.removeKeyframe(keyframe.keyframe_id);
     keyframe_ms_.push_back(project_ms +
                            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - merge_start).count());

@@ -238,5 +238,48 @@ TEST_F(RunFolderCheck, MismatchedOrMissingFilesAreNamed) {
   expectError("KeyFrameTrajectory.txt does not exist");
 }
 
+// Free-space carving: what one keyframe saw at 1 m is seen THROUGH by a later keyframe at the
+// same place that measures the wall at 3 m (the person walked on): left out of the export. A
+// later keyframe measuring something in FRONT (0.5 m) says nothing about it and keeps it.
+class Carving : public ::testing::Test {
+ protected:
+  PinholeCamera camera{smallCamera(160, 120)};
+  static size_t pointsNear(const DenseCloud& cloud, double z) {
+    size_t n = 0;
+    for (const Vec3& p : cloud.points_w) n += std::abs(p.z() - z) < 0.02 ? 1 : 0;
+    return n;
+  }
+  DenseCloud run(bool carve, double second_view_depth, size_t* misses = nullptr) {
+    DenseOptions options = noFilterOptions();
+    options.carve_free_space = carve;
+    DenseMap map(options, camera);
+    map.addKeyframe(planeKeyframe(camera, 1, 1.0, SE3(), Vec3::UnitZ(), 1.0));
+    map.addKeyframe(planeKeyframe(camera, 2, 2.0, SE3(), Vec3::UnitZ(), second_view_depth));
+    if (misses != nullptr) *misses = map.stats().voxel_misses;
+    return map.extract();
+  }
+};
+
+TEST_F(Carving, AGhostSeenThroughLaterIsLeftOut) {
+  size_t misses = 0;
+  const DenseCloud carved = run(true, 3.0, &misses);
+  EXPECT_GT(misses, 1000u);
+  EXPECT_GT(pointsNear(carved, 3.0), 1000u);
+  const DenseCloud kept = run(false, 3.0);
+  EXPECT_GT(pointsNear(kept, 1.0), 1000u);  // the same scene without carving keeps the ghost
+  // Only the image's outermost pixels escape (the see-through test needs the 3x3 window).
+  EXPECT_LT(pointsNear(carved, 1.0), pointsNear(kept, 1.0) / 20);
+}
+
+TEST_F(Carving, SomethingInFrontOrTheSameSurfaceCarvesNothing) {
+  size_t misses = 0;
+  const DenseCloud occluded = run(true, 0.5, &misses);
+  EXPECT_EQ(misses, 0u);
+  EXPECT_GT(pointsNear(occluded, 1.0), 1000u);
+  const DenseCloud same = run(true, 1.0, &misses);
+  EXPECT_EQ(misses, 0u);
+  EXPECT_GT(pointsNear(same, 1.0), 1000u);
+}
+
 }  // namespace
 }  // namespace desslam::dense
