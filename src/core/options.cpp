@@ -50,6 +50,8 @@ void TrackingOptions::validate() const {
   requireInRange(s, "keyframe_tracked_ratio", keyframe_tracked_ratio, 0.0, 1.0);
   requireInRange(s, "keyframe_translation", keyframe_translation, 0.0, 100.0);
   requireInRange(s, "keyframe_rotation_deg", keyframe_rotation_deg, 0.0, 180.0);
+  requireInRange(s, "keyframe_still_translation", keyframe_still_translation, 0.0, keyframe_translation);
+  requireInRange(s, "keyframe_still_rotation_deg", keyframe_still_rotation_deg, 0.0, keyframe_rotation_deg);
   requireInRange(s, "local_map_keyframes", local_map_keyframes, 1, 1000);
   requireInRange(s, "depth_baseline", depth_baseline, 0.001, 10.0);
 }

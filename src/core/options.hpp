@@ -61,6 +61,11 @@ struct TrackingOptions {
   // Pose-change criterion (relative pose between the frame and its reference keyframe).
   double keyframe_translation = 0.10;      // metres
   double keyframe_rotation_deg = 10.0;     // degrees
+  // A camera that has moved less than this since the last keyframe is still: it gets no new
+  // keyframe while tracking holds (people walking through a still view only add their own
+  // points and occlusions, which the other criteria would answer with a keyframe per frame).
+  double keyframe_still_translation = 0.02;  // metres
+  double keyframe_still_rotation_deg = 2.0;  // degrees
   int local_map_keyframes = 40;            // co-visible keyframes in the local map
   // Depth residuals are expressed as a virtual stereo disparity bf/z (pixels), as for RGB-D
   // keypoints in the ORB-SLAM2 paper; bf = fx * depth_baseline (Kinect-like sensors: ~8 cm).
@@ -81,6 +86,8 @@ struct TrackingOptions {
     v("min_frames_between_keyframes", min_frames_between_keyframes);
     v("keyframe_tracked_ratio", keyframe_tracked_ratio);
     v("keyframe_translation", keyframe_translation); v("keyframe_rotation_deg", keyframe_rotation_deg);
+    v("keyframe_still_translation", keyframe_still_translation);
+    v("keyframe_still_rotation_deg", keyframe_still_rotation_deg);
     v("local_map_keyframes", local_map_keyframes); v("depth_baseline", depth_baseline);
     v("still_camera_hypothesis", still_camera_hypothesis); v("compensate_depth_delay", compensate_depth_delay);
   }

@@ -478,9 +478,13 @@ bool Tracker::needKeyframe(const map::Frame& frame, int inliers, bool mapping_id
   const bool timeout = static_cast<int>(since_last) >= t.max_frames_between_keyframes;
   const bool weak = inliers < 0.25 * reference_tracked || need_close;
   const bool fewer_than_reference = (inliers < ratio * reference_tracked || need_close) && inliers > 15;
-  // Pose-change criterion: a fast turn or move gets a keyframe even if matching still holds.
-  const bool moved = T_c_lastkf.translation().norm() > t.keyframe_translation ||
-                     T_c_lastkf.rotationAngle() * 180.0 / M_PI > t.keyframe_rotation_deg;
+  // Pose-change criteria: a fast turn or move gets a keyframe even if matching still holds; a
+  // still camera gets none while tracking holds.
+  const double moved_m = T_c_lastkf.translation().norm();
+  const double turned_deg = T_c_lastkf.rotationAngle() * 180.0 / M_PI;
+  const bool moved = moved_m > t.keyframe_translation || turned_deg > t.keyframe_rotation_deg;
+  const bool still = moved_m < t.keyframe_still_translation && turned_deg < t.keyframe_still_rotation_deg;
+  if (still && inliers >= kMinLocalMapInliers) return false;
   return ((timeout || mapping_idle || weak) && fewer_than_reference) || (moved && inliers > 15);
 }
 
