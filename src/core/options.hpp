@@ -200,6 +200,7 @@ struct DenseOptions {
   // gets a miss, and voxels with at least as many misses as observations are left out of the export. The
   // ghost of a person who walked on is seen through by the keyframes that follow; a static
   // surface is not (depth checks and masks miss parts of people: dark clothes, limbs).
+  // Part of the dynamic-scene handling: `dynamic.mode: off` (the plain core) turns it off too.
   bool carve_free_space = true;
   double carve_tolerance = 0.05;  // metres
 

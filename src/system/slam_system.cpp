@@ -81,6 +81,8 @@ SlamSystem::SlamSystem(const SystemOptions& options, const RunSettings& settings
     }
     mapping_thread_ = std::make_unique<mapping::LocalMappingThread>(mapper_, &mapping_pause_, std::move(to_loop_closing));
   }
+  // The plain core (dynamic.mode off) has no dynamic-scene handling at all, in the dense map too.
+  if (options_.dynamic.mode == "off") options_.dense.carve_free_space = false;
   if (options_.dense.enabled)
     dense_ = std::make_unique<dense::DenseMappingThread>(
         options_.dense, camera_, settings_.realtime ? QueueFullPolicy::kDropOldest : QueueFullPolicy::kBlock);
@@ -401,6 +403,7 @@ nlohmann::json SlamSystem::exportDenseMap(const std::filesystem::path& out_dir, 
           {"rekeys", stats.rekeys},
           {"voxels_rekeyed", stats.voxels_rekeyed},
           {"voxels_merged_by_rekey", stats.voxels_merged},
+          {"carve_free_space", options_.dense.carve_free_space},
           {"voxel_misses_by_carving", stats.voxel_misses},
           {"thread_ms_per_keyframe", summarizeMilliseconds(dense_->keyframeMilliseconds())},
           {"thread_cpu_ms_per_keyframe", summarizeMilliseconds(dense_->keyframeCpuMilliseconds())},
