@@ -2,7 +2,9 @@
 // sequence and writes CameraTrajectory.txt, KeyFrameTrajectory.txt and report.json.
 // The trajectory is also saved every few hundred frames and on Ctrl-C, so a long run never loses
 // what it already computed.
+#include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
@@ -10,6 +12,7 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -42,7 +45,35 @@ struct RunArgs {
   std::string dynamic_mode;  // empty: from the config
   std::string debug_images;
   std::string map_color = "rgb";
+  std::string skip_frames;  // "FIRST-LAST" or empty
 };
+
+// Frames [first, last] (0-based indices into the paired frame list) withheld from the system.
+struct SkippedFrames {
+  size_t first = 0;
+  size_t last = 0;
+  bool contains(size_t i) const { return i >= first && i <= last; }
+};
+
+// Parses --skip-frames FIRST-LAST; throws InputError naming the option and the expected form.
+std::optional<SkippedFrames> parseSkipFrames(const std::string& text) {
+  if (text.empty()) return std::nullopt;
+  const auto fail = [&text](const std::string& why) {
+    return InputError("--skip-frames '" + text + "': " + why +
+                      "; expected FIRST-LAST, two 0-based frame indices with FIRST <= LAST, e.g. --skip-frames 200-259");
+  };
+  const size_t dash = text.find('-');
+  if (dash == std::string::npos) throw fail("no '-' between the two indices");
+  const auto index = [&](const std::string& part) {
+    if (part.empty() || part.size() > 12 ||
+        !std::all_of(part.begin(), part.end(), [](unsigned char c) { return std::isdigit(c) != 0; }))
+      throw fail("'" + part + "' is not a frame index");
+    return static_cast<size_t>(std::stoull(part));
+  };
+  SkippedFrames skipped{index(text.substr(0, dash)), index(text.substr(dash + 1))};
+  if (skipped.first > skipped.last) throw fail("FIRST is after LAST");
+  return skipped;
+}
 
 constexpr size_t kCheckpointEvery = 200;  // frames between partial trajectory saves
 
@@ -60,6 +91,7 @@ void writeJson(const std::filesystem::path& path, const nlohmann::json& j) {
 }
 
 void runSequence(const RunArgs& args) {
+  const std::optional<SkippedFrames> skipped = parseSkipFrames(args.skip_frames);
   SystemOptions options = io::loadConfig(args.config);
   for (const std::string& assignment : args.overrides) io::applyOverride(options, assignment);
   if (!args.dynamic_mode.empty()) options.dynamic.mode = args.dynamic_mode;
@@ -71,6 +103,10 @@ void runSequence(const RunArgs& args) {
   const std::filesystem::path out_dir(args.out);
   std::filesystem::create_directories(out_dir);
   const size_t frame_count = args.max_frames > 0 ? std::min(args.max_frames, sequence.size()) : sequence.size();
+  if (skipped && skipped->first >= frame_count)
+    throw InputError("--skip-frames " + args.skip_frames + ": the run has only " + std::to_string(frame_count) +
+                     " frames (indices 0-" + std::to_string(frame_count - 1) + "); choose a range inside it");
+  std::vector<size_t> input_index;  // per frame given to the system: its index in the sequence
 
   system::RunSettings settings;
   settings.deterministic = args.deterministic;
@@ -91,10 +127,11 @@ void runSequence(const RunArgs& args) {
       stop_reason = "interrupted after " + std::to_string(i) + " frames";
       break;
     }
+    if (skipped && skipped->contains(i)) continue;
     io::RgbdImage image;
     try {
       image = sequence.load(i, options.camera);
-      if (i == 0) io::checkDepthScale(image.depth, sequence.record(i).depth_path, options.camera.depth_factor);
+      if (input_index.empty()) io::checkDepthScale(image.depth, sequence.record(i).depth_path, options.camera.depth_factor);
     } catch (const InputError&) {
       // Keep what was computed, then report the bad input.
       slam.finish();
@@ -109,6 +146,7 @@ void runSequence(const RunArgs& args) {
       lag_ms.push_back(std::max(0.0, now_s - due_s) * 1000.0);
     }
     const io::RgbdFrameRecord& record = sequence.record(i);
+    input_index.push_back(i);
     slam.processFrame(image.timestamp, image.bgr, image.depth, record.rgb_path.filename().string(),
                       record.depth_timestamp - record.rgb_timestamp);
 
@@ -136,7 +174,12 @@ void runSequence(const RunArgs& args) {
   report["config"] = args.config;
   report["overrides"] = args.overrides;
   report["settings"] = io::optionsToJson(options);
+  report["settings"]["skip_frames"] =
+      skipped ? nlohmann::json{{"first", skipped->first}, {"last", skipped->last}} : nlohmann::json(nullptr);
   report["statistics"] = slam.statistics();
+  // per_frame lists the frames the system got; with --skip-frames their sequence index differs.
+  if (auto& per_frame = report["statistics"]["per_frame"]; per_frame.is_array())
+    for (size_t k = 0; k < per_frame.size() && k < input_index.size(); ++k) per_frame[k]["input_index"] = input_index[k];
   report["wall_seconds"] = wall_s;
   report["frames_per_second"] = slam.framesProcessed() / std::max(wall_s, 1e-9);
   report["input_warnings"] = sequence.warnings();
@@ -151,7 +194,7 @@ void runSequence(const RunArgs& args) {
       report["rpe"] = eval::toJson(rpe);
       // Share of frames (associated with ground truth) that got a pose.
       std::vector<StampedPose> frames;
-      for (size_t i = 0; i < frame_count; ++i) frames.push_back({sequence.record(i).rgb_timestamp, SE3()});
+      for (size_t i : input_index) frames.push_back({sequence.record(i).rgb_timestamp, SE3()});
       const size_t associated = eval::associate(*sequence.groundTruth(), frames).size();
       report["tracked_share_of_associated_frames"] =
           associated > 0 ? static_cast<double>(ate.matched) / associated : 0.0;
@@ -183,6 +226,10 @@ void registerRunCommand(CLI::App& app) {
                 "Every stage waits for the one before it: identical results on every run");
   cmd->add_option("--set", args->overrides, "Override a config key, e.g. --set tracking.max_depth=3.5 (repeatable)");
   cmd->add_option("--max-frames", args->max_frames, "Process only the first N frames (0 = all)");
+  cmd->add_option("--skip-frames", args->skip_frames,
+                  "FIRST-LAST: withhold frames FIRST..LAST (0-based indices into the paired frame list, both "
+                  "included) from the system, a sudden jump for testing relocalisation; recorded in report.json "
+                  "settings.skip_frames, per_frame[].input_index gives each processed frame's index");
   cmd->add_flag("--quiet,-q", args->quiet, "No progress line or summary");
   cmd->add_flag("--realtime", args->realtime,
                 "Feed frames at the sensor's rate; tracking never waits for segmentation");

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <set>
 #include <shared_mutex>
 
@@ -299,6 +300,8 @@ bool LoopCloser::applyLoopCorrection(const LoopMatch& match, uint64_t& newest_in
   {
     std::lock_guard s(stats_mutex_);
     ++stats_.loops_closed;
+    stats_.closed.push_back({current->id, loop->id, current->timestamp, loop->timestamp, match.inliers,
+                             C.translation().norm(), C.rotationAngle() * 180.0 / M_PI});
     stats_.points_fused += fused;
     stats_.pose_graph_ms.push_back(graph_ms);
     stats_.correction_ms.push_back(msSince(start));

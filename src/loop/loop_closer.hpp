@@ -63,6 +63,14 @@ class MappingPause {
   std::atomic<bool>* abort_flag_ = nullptr;
 };
 
+// One corrected loop, for the report (check it against ground truth by the timestamps).
+struct ClosedLoop {
+  uint64_t current_keyframe = 0, loop_keyframe = 0;
+  double current_timestamp = 0, loop_timestamp = 0;
+  int inliers = 0;
+  double correction_m = 0, correction_deg = 0;  // the drift the loop implied at the current keyframe
+};
+
 struct LoopClosingStats {
   size_t loops_detected = 0;   // verified by geometry
   size_t loops_closed = 0;     // corrections applied
@@ -72,6 +80,7 @@ struct LoopClosingStats {
   size_t global_ba_applied = 0;
   size_t global_ba_aborted = 0;
   std::vector<double> correction_ms, pose_graph_ms, global_ba_ms;
+  std::vector<ClosedLoop> closed;
   LoopDetectionStats detection;
 };
 

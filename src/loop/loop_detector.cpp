@@ -221,9 +221,16 @@ std::optional<LoopMatch> LoopDetector::verify(map::Keyframe* kf, map::Keyframe* 
     owners.emplace_back(pairs[k].first, p);
   }
   const RigidRansacOptions ransac = ransacOptions(options_);
-  if (static_cast<int>(correspondences.size()) < options_.min_rigid_inliers) return std::nullopt;
+  // Why a candidate fails (on fr1_desk every consistent candidate is a false place 1-2 m away
+  // with < 25 descriptor matches; true revisits give 100+ inliers): one line per stage.
+  const auto rejected = [&](const char* stage, int inliers) {
+    spdlog::debug("loop: keyframe {} candidate {} rejected at {}: {} descriptor matches, {} 3-D pairs, {} inliers",
+                  kf->id, candidate->id, stage, pairs.size(), correspondences.size(), inliers);
+    return std::nullopt;
+  };
+  if (static_cast<int>(correspondences.size()) < options_.min_rigid_inliers) return rejected("matching", 0);
   const RigidRansacResult first = estimateRigidRansac(correspondences, ransac);
-  if (!first.success) return std::nullopt;
+  if (!first.success) return rejected("RANSAC", first.inlier_count);
 
   // 2. Guided search: the candidate group's points projected with the estimated pose.
   std::vector<map::MapPoint*> matched(fa.size(), nullptr);
@@ -278,7 +285,7 @@ std::optional<LoopMatch> LoopDetector::verify(map::Keyframe* kf, map::Keyframe* 
   RigidRansacOptions refit = ransac;
   refit.min_inliers = options_.min_loop_matches;
   const RigidRansacResult final_fit = estimateRigidRansac(correspondences, refit);
-  if (!final_fit.success) return std::nullopt;
+  if (!final_fit.success) return rejected("guided search", final_fit.inlier_count);
   LoopMatch match;
   match.current = kf;
   match.loop = candidate;

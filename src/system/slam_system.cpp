@@ -263,6 +263,17 @@ Trajectory SlamSystem::keyframeTrajectory() const {
   return trajectory;
 }
 
+namespace {
+nlohmann::json closedLoopsJson(const std::vector<loop::ClosedLoop>& loops) {
+  nlohmann::json list = nlohmann::json::array();
+  for (const loop::ClosedLoop& l : loops)
+    list.push_back({{"current_keyframe", l.current_keyframe}, {"loop_keyframe", l.loop_keyframe},
+                    {"current_timestamp", l.current_timestamp}, {"loop_timestamp", l.loop_timestamp},
+                    {"inliers", l.inliers}, {"correction_m", l.correction_m}, {"correction_deg", l.correction_deg}});
+  return list;
+}
+}  // namespace
+
 nlohmann::json SlamSystem::statistics() const {
   std::vector<double> extraction, tracking, tracking_thread, total, mask_wait, segmentation;
   nlohmann::json per_frame = nlohmann::json::array();
@@ -343,6 +354,7 @@ nlohmann::json SlamSystem::statistics() const {
                          {"global_ba_applied", ls.global_ba_applied},
                          {"global_ba_aborted", ls.global_ba_aborted},
                          {"keyframes_dropped", loop_thread_ ? loop_thread_->dropped() : 0},
+                         {"closed", closedLoopsJson(ls.closed)},
                          {"timings_ms",
                           {{"correction", summarizeMilliseconds(ls.correction_ms)},
                            {"pose_graph", summarizeMilliseconds(ls.pose_graph_ms)},

@@ -193,6 +193,15 @@ TEST(LoopClosing, SyntheticDoubleLoopCutsAteToAThird) {
   EXPECT_GT(without.ate.translation_m.rmse, 0.05) << "the injected drift must matter";
   EXPECT_GE(with.stats.loops_closed, 1u);
   EXPECT_LE(with.ate.translation_m.rmse * 3, without.ate.translation_m.rmse);
+  // Each closed loop is listed (report.json loop_closing.closed): an older keyframe, and the
+  // drift it corrected is the injected one, not nothing.
+  ASSERT_EQ(with.stats.closed.size(), with.stats.loops_closed);
+  for (const loop::ClosedLoop& l : with.stats.closed) {
+    EXPECT_LT(l.loop_keyframe, l.current_keyframe);
+    EXPECT_LT(l.loop_timestamp, l.current_timestamp);
+    EXPECT_GE(l.inliers, LoopOptions{}.min_loop_matches);
+    EXPECT_GT(l.correction_m + l.correction_deg * 0.01, 0.01);
+  }
 }
 
 // The same with loop closing and global BA in their own threads while keyframes keep coming

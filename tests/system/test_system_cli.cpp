@@ -275,6 +275,42 @@ TEST_F(DesslamCli, UnknownOverrideKeyIsNamed) {
   EXPECT_CONTAINS(r.err, "tracking.max_dept");
 }
 
+TEST_F(DesslamCli, SkipFramesWithholdsTheRangeAndSaysSo) {
+  writeSequence(30);
+  writeConfig();
+  const CommandResult r = run(sequence(), config(), out(), "--deterministic -q --skip-frames 10-14");
+  ASSERT_EQ(r.exit_code, 0) << "stderr:\n" << r.err;
+  nlohmann::json report;
+  ASSERT_NO_THROW(report = nlohmann::json::parse(test::readText(out() / "report.json")));
+  EXPECT_EQ(report["settings"]["skip_frames"]["first"].get<size_t>(), 10u);
+  EXPECT_EQ(report["settings"]["skip_frames"]["last"].get<size_t>(), 14u);
+  EXPECT_EQ(report["statistics"]["counts"]["frames"].get<size_t>(), 25u);
+  const auto& per_frame = report["statistics"]["per_frame"];
+  ASSERT_EQ(per_frame.size(), 25u);
+  EXPECT_EQ(per_frame[9]["input_index"].get<size_t>(), 9u);
+  EXPECT_EQ(per_frame[10]["input_index"].get<size_t>(), 15u);
+  // The withheld frames have no pose.
+  const Trajectory camera = io::readTumTrajectory(out() / "CameraTrajectory.txt");
+  EXPECT_LE(camera.size(), 25u);
+}
+
+TEST_F(DesslamCli, MalformedSkipFramesIsNamed) {
+  writeSequence(3);
+  writeConfig();
+  for (const std::string value : {"200", "a-5", "9-2", "-4", "3-", "1-2-3"}) {
+    SCOPED_TRACE(value);
+    const CommandResult r = run(sequence(), config(), out(), "--skip-frames=" + value);
+    expectCleanFailure(r);
+    EXPECT_CONTAINS(r.err, "--skip-frames");
+    EXPECT_CONTAINS(r.err, "FIRST-LAST");
+  }
+  // A range starting past the sequence's end skips nothing: refused, naming the frame count.
+  const CommandResult past = run(sequence(), config(), out(), "--skip-frames 5-9");
+  expectCleanFailure(past);
+  EXPECT_CONTAINS(past.err, "--skip-frames");
+  EXPECT_CONTAINS(past.err, "3 frames");
+}
+
 TEST_F(DesslamCli, MissingConfigFileIsNamed) {
   writeSequence(3);
   const CommandResult r = run(sequence(), dir_ / "no_such_config.yaml", out());
