@@ -28,9 +28,12 @@ cv::Mat dilateMask(const cv::Mat& mask, int radius_px) {
     throw InputError("dilateMask: radius " + std::to_string(radius_px) + " is negative (dynamic.mask_dilation_px >= 0)");
   cv::Mat binary = mask != 0;  // 0/255
   if (radius_px == 0) return binary;
-  cv::Mat out;
-  cv::dilate(binary, out, ellipse(radius_px));
-  return out;
+  // A disc of radius r: every pixel within Euclidean distance r of the mask. The exact distance
+  // transform is linear in the image size; cv::dilate with a 31x31 disc (r = 15) costs ~700
+  // operations per pixel, which a real-time frame cannot afford.
+  cv::Mat distance;
+  cv::distanceTransform(mask == 0, distance, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  return distance <= static_cast<float>(radius_px) + 1e-3f;
 }
 
 std::vector<uint8_t> featuresInMask(const map::FeatureSet& features, const cv::Mat& mask) {
@@ -51,13 +54,16 @@ cv::Mat carryMaskForward(const cv::Mat& mask_j, const cv::Mat& depth_j, const SE
     throw InputError("carryMaskForward: depth must be CV_32F metres of the mask's size");
   if (close_radius_px < 0) throw InputError("carryMaskForward: close_radius_px must be >= 0");
 
+  // Every second pixel in both directions, each moved as a 2x2 block: a quarter of the work, and
+  // the closing below fills what the blocks leave.
+  constexpr int kStep = 2;
   std::vector<cv::Point2f> raw;
   std::vector<float> depth;
   std::vector<float> valid_depths;
-  for (int y = 0; y < mask_j.rows; ++y) {
+  for (int y = 0; y < mask_j.rows; y += kStep) {
     const uint8_t* m = mask_j.ptr<uint8_t>(y);
     const float* d = depth_j.ptr<float>(y);
-    for (int x = 0; x < mask_j.cols; ++x) {
+    for (int x = 0; x < mask_j.cols; x += kStep) {
       if (m[x] == 0) continue;
       raw.emplace_back(static_cast<float>(x), static_cast<float>(y));
       depth.push_back(d[x]);
@@ -81,8 +87,10 @@ cv::Mat carryMaskForward(const cv::Mat& mask_j, const cv::Mat& depth_j, const SE
     const Vec3 p_k = T_k_j * camera.backProject(Vec2(uv[i].x, uv[i].y), z);
     if (p_k.z() <= 0) continue;
     const Vec2 target = camera.distort(camera.project(p_k));
-    const int x = static_cast<int>(std::lround(target.x())), y = static_cast<int>(std::lround(target.y()));
-    if (x >= 0 && y >= 0 && x < out.cols && y < out.rows) out.at<uint8_t>(y, x) = 255;
+    const int x0 = static_cast<int>(std::lround(target.x())), y0 = static_cast<int>(std::lround(target.y()));
+    for (int y = y0; y < y0 + kStep; ++y)
+      for (int x = x0; x < x0 + kStep; ++x)
+        if (x >= 0 && y >= 0 && x < out.cols && y < out.rows) out.at<uint8_t>(y, x) = 255;
   }
   if (close_radius_px > 0) cv::morphologyEx(out, out, cv::MORPH_CLOSE, ellipse(close_radius_px));
   return out;

@@ -89,6 +89,20 @@ float depthAtIdealPixel(const PinholeCamera& camera, const cv::Mat& depth_m, con
   if (x < 0 || y < 0 || x >= depth_m.cols || y >= depth_m.rows) return -1.0f;
   return depth_m.at<float>(y, x);
 }
+// Whether the valid depths in the 3x3 window around an ideal pixel differ from the centre's by
+// more than `ratio` of it.
+bool nearDepthEdge(const PinholeCamera& camera, const cv::Mat& depth_m, const Vec2& uv, float ratio) {
+  const Vec2 raw = camera.distort(uv);
+  const int x = static_cast<int>(std::lround(raw.x())), y = static_cast<int>(std::lround(raw.y()));
+  if (x < 1 || y < 1 || x >= depth_m.cols - 1 || y >= depth_m.rows - 1) return true;
+  const float centre = depth_m.at<float>(y, x);
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx) {
+      const float d = depth_m.at<float>(y + dy, x + dx);
+      if (d > 0 && std::abs(d - centre) > ratio * centre) return true;
+    }
+  return false;
+}
 }  // namespace
 
 std::shared_ptr<const FeatureSet> compensateDepthDelay(const FeatureSet& features, const PinholeCamera& camera,
@@ -97,6 +111,7 @@ std::shared_ptr<const FeatureSet> compensateDepthDelay(const FeatureSet& feature
   auto set = std::make_shared<FeatureSet>(features);
   if (depth_m.empty()) return set;
   constexpr int kIterations = 4;
+  constexpr float kEdgeRatio = 0.05f;
   for (size_t i = 0; i < features.size(); ++i) {
     set->depth[i] = -1.0f;
     const Vec2& uv = features.uv[i];
@@ -116,6 +131,11 @@ std::shared_ptr<const FeatureSet> compensateDepthDelay(const FeatureSet& feature
       }
       uv_depth += residual;
     }
+    // Next to a depth edge the search can settle on the other surface (the background the depth
+    // camera sees beside an object, or the reverse): no depth there rather than a wrong one.
+    // Only when the search moved the lookup: otherwise the reading is the one the image gave.
+    if (settled && (uv_depth - uv).norm() >= tolerance_px && nearDepthEdge(camera, depth_m, uv_depth, kEdgeRatio))
+      settled = false;
     if (settled && z_rgb >= min_depth && z_rgb <= max_depth) set->depth[i] = static_cast<float>(z_rgb);
   }
   return set;

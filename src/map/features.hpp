@@ -71,7 +71,8 @@ std::shared_ptr<const FeatureSet> buildFeatureSet(std::vector<cv::KeyPoint> keyp
 // depth time (from the motion model), each keypoint's depth is re-read where the depth camera saw
 // the keypoint's surface point: a fixed-point search u_d <- u_d + (u - project(T_rgb_depth *
 // backProject(u_d, D(u_d)))). A keypoint whose search does not settle within `tolerance_px` (a
-// depth edge) loses its depth rather than keep a wrong one. Returns a copy with the new depths.
+// depth edge), or that settles next to one (depths in its 3x3 window differing by over 5 %), loses
+// its depth rather than keep a wrong one. Returns a copy with the new depths.
 std::shared_ptr<const FeatureSet> compensateDepthDelay(const FeatureSet& features, const PinholeCamera& camera,
                                                        const cv::Mat& depth_m, const SE3& T_rgb_depth,
                                                        double min_depth, double max_depth, double tolerance_px = 0.5);
