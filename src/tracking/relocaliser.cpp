@@ -12,7 +12,7 @@
 
 #include "core/error.hpp"
 #include "matching/matcher.hpp"
-#include "optim/pose_optimizer.hpp"
+#include "tracking/frame_pose.hpp"
 
 namespace desslam::tracking {
 
@@ -254,41 +254,6 @@ int Relocaliser::searchCovisiblePoints(map::Frame& frame, map::Keyframe* keyfram
   return matching::searchByProjection(frame, camera_, candidates, matcher);
 }
 
-int Relocaliser::optimizePose(map::Frame& frame) const {
-  const map::FeatureSet& features = *frame.features;
-  const auto& pyramid = *features.pyramid;
-  std::vector<optim::PoseObservation> observations;
-  std::vector<size_t> feature_of;
-  {
-    std::shared_lock lock(map_.mutex());
-    for (size_t i = 0; i < features.size(); ++i) {
-      map::FeatureMatch& m = frame.matches[i];
-      if (m.point == nullptr) continue;
-      if (m.point->bad) {
-        m = {};
-        continue;
-      }
-      optim::PoseObservation o;
-      o.obs.uv = features.uv[i];
-      o.obs.depth = features.hasDepth(i) ? features.depth[i] : -1.0;
-      o.obs.inv_sigma2 = pyramid.inv_sigma2[static_cast<size_t>(features.level(i))];
-      o.point_w = m.point->position;
-      observations.push_back(o);
-      feature_of.push_back(i);
-    }
-  }
-  if (observations.size() < 6) return 0;
-  optim::PoseOptimizerOptions po;
-  po.bf = bf_;
-  optim::optimizePose(camera_, frame.T_c_w, observations, po);
-  int inliers = 0;
-  for (size_t k = 0; k < observations.size(); ++k) {
-    if (observations[k].outlier)
-      frame.matches[feature_of[k]] = {};
-    else
-      ++inliers;
-  }
-  return inliers;
-}
+int Relocaliser::optimizePose(map::Frame& frame) const { return optimizeFramePose(frame, map_, camera_, bf_); }
 
 }  // namespace desslam::tracking

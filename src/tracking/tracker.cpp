@@ -7,7 +7,7 @@
 #include <shared_mutex>
 
 #include "dynamic/depth_checks.hpp"
-#include "optim/pose_optimizer.hpp"
+#include "tracking/frame_pose.hpp"
 
 namespace desslam::tracking {
 
@@ -306,44 +306,7 @@ bool Tracker::trackKeyframe(map::Frame& frame, map::Keyframe* keyframe) {
   return optimizeFramePose(frame) >= kMinMapInliersStep;
 }
 
-int Tracker::optimizeFramePose(map::Frame& frame) {
-  const map::FeatureSet& features = *frame.features;
-  const auto& pyramid = *features.pyramid;
-  std::vector<optim::PoseObservation> observations;
-  std::vector<int> feature_of;
-  {
-    std::shared_lock lock(map_.mutex());
-    for (size_t i = 0; i < features.size(); ++i) {
-      map::FeatureMatch& m = frame.matches[i];
-      if (!m.matched()) continue;
-      if (m.point != nullptr && m.point->bad) {
-        m = {};
-        continue;
-      }
-      optim::PoseObservation o;
-      o.obs.uv = features.uv[i];
-      o.obs.depth = features.hasDepth(i) ? features.depth[i] : -1.0;
-      o.obs.inv_sigma2 = pyramid.inv_sigma2[features.level(i)];
-      o.point_w = m.point != nullptr ? m.point->position : m.vo_point;
-      observations.push_back(o);
-      feature_of.push_back(static_cast<int>(i));
-    }
-  }
-  if (observations.size() < 6) return 0;
-  optim::PoseOptimizerOptions po;
-  po.bf = bf_;
-  optim::optimizePose(camera_, frame.T_c_w, observations, po);
-  int map_inliers = 0;
-  for (size_t k = 0; k < observations.size(); ++k) {
-    map::FeatureMatch& m = frame.matches[feature_of[k]];
-    if (observations[k].outlier) {
-      m = {};
-    } else if (m.point != nullptr) {
-      ++map_inliers;
-    }
-  }
-  return map_inliers;
-}
+int Tracker::optimizeFramePose(map::Frame& frame) { return tracking::optimizeFramePose(frame, map_, camera_, bf_); }
 
 void Tracker::updateLocalMap(const map::Frame& frame) {
   // Keyframes voting by the points the frame sees; the most voted becomes the reference.
