@@ -90,6 +90,7 @@ void SemanticOptions::validate() const {
   requireThat(!dynamic_classes.empty(), s, "dynamic_classes", "needs at least one class id (15 = person)");
   for (int c : dynamic_classes) requireInRange(s, "dynamic_classes", c, 0, 255);
   requireInRange(s, "threads", threads, 1, 64);
+  requireInRange(s, "realtime_max_rate_hz", realtime_max_rate_hz, 0.0, 1000.0);
 }
 
 void DenseOptions::validate() const {

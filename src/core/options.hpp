@@ -166,11 +166,16 @@ struct SemanticOptions {
   // OpenCV threads for the network. cv::setNumThreads() is process-wide, so the application
   // applies this; the semantic library never calls it.
   int threads = 1;
+  // Real-time mode (--realtime): the network starts at most this often (0 = as often as it can).
+  // On 2 cores an unthrottled network takes a whole core and starves mapping; masks between are
+  // carried forward with depth and camera motion.
+  double realtime_max_rate_hz = 10.0;
 
   static constexpr const char* kSection = "semantic";
   template <class V> void fields(V& v) {
     v("segmenter", segmenter); v("model_path", model_path); v("model_sha256", model_sha256);
     v("mask_dir", mask_dir); v("dynamic_classes", dynamic_classes); v("threads", threads);
+    v("realtime_max_rate_hz", realtime_max_rate_hz);
   }
   void validate() const;
 };

@@ -1,13 +1,14 @@
 #include "semantic/semantic_thread.hpp"
 
+#include <chrono>
 #include <stdexcept>
 
 #include "core/error.hpp"
 
 namespace desslam::semantic {
 
-SemanticThread::SemanticThread(std::unique_ptr<Segmenter> segmenter, SemanticMode mode)
-    : segmenter_(std::move(segmenter)), mode_(mode) {
+SemanticThread::SemanticThread(std::unique_ptr<Segmenter> segmenter, SemanticMode mode, double realtime_max_rate_hz)
+    : segmenter_(std::move(segmenter)), mode_(mode), realtime_max_rate_hz_(realtime_max_rate_hz) {
   if (!segmenter_) throw std::invalid_argument("SemanticThread needs a segmenter (got nullptr)");
   worker_ = std::thread([this] { run(); });
 }
@@ -128,6 +129,7 @@ void SemanticThread::run() {
     }
     space_available_.notify_one();
 
+    const auto started = std::chrono::steady_clock::now();
     Finished done;
     try {
       done.result =
@@ -146,6 +148,14 @@ void SemanticThread::run() {
       }
     }
     result_ready_.notify_all();
+
+    if (mode_ == SemanticMode::kRealtime && realtime_max_rate_hz_ > 0) {
+      // Rate limit: rest until the next start is due (stop() still wakes the worker at once).
+      const auto next = started + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                      std::chrono::duration<double>(1.0 / realtime_max_rate_hz_));
+      std::unique_lock lock(mutex_);
+      job_available_.wait_until(lock, next, [&] { return stopping_; });
+    }
   }
 }
 

@@ -45,7 +45,10 @@ class SemanticThread {
   static constexpr std::size_t kMaxRealtimeResults = 4;   // real-time: older results are dropped
 
   // segmenter must not be null (throws std::invalid_argument). Starts the worker.
-  SemanticThread(std::unique_ptr<Segmenter> segmenter, SemanticMode mode);
+  // realtime_max_rate_hz (real-time mode only; 0 = unlimited): segmentations start at most this
+  // often, so the network leaves CPU to tracking and mapping; frames in between get the newest
+  // mask carried forward.
+  SemanticThread(std::unique_ptr<Segmenter> segmenter, SemanticMode mode, double realtime_max_rate_hz = 0);
   ~SemanticThread();  // stop() and join
   SemanticThread(const SemanticThread&) = delete;
   SemanticThread& operator=(const SemanticThread&) = delete;
@@ -90,6 +93,7 @@ class SemanticThread {
 
   std::unique_ptr<Segmenter> segmenter_;  // worker thread only
   const SemanticMode mode_;
+  const double realtime_max_rate_hz_;
 
   mutable std::mutex mutex_;
   std::condition_variable job_available_;  // worker waits: pending_ non-empty or stopping

@@ -71,7 +71,8 @@ SlamSystem::SlamSystem(const SystemOptions& options, const RunSettings& settings
                         " needs masks but semantic.segmenter = none: choose deeplab or mask_dir, or dynamic.mode "
                         "geometric/off");
     semantic_ = std::make_unique<semantic::SemanticThread>(
-        std::move(segmenter), settings_.realtime ? semantic::SemanticMode::kRealtime : semantic::SemanticMode::kOffline);
+        std::move(segmenter), settings_.realtime ? semantic::SemanticMode::kRealtime : semantic::SemanticMode::kOffline,
+        options_.semantic.realtime_max_rate_hz);
   }
   if (!settings_.deterministic) {
     std::function<void(map::Keyframe*)> to_loop_closing;

@@ -254,5 +254,21 @@ TEST(SemanticThread, NullSegmenterIsRejected) {
   EXPECT_THROW(SemanticThread(nullptr, SemanticMode::kOffline), std::invalid_argument);
 }
 
+// Real time with a rate limit: however fast frames come and the network runs, segmentations
+// start at most realtime_max_rate_hz per second (an upper bound: a slow machine only does fewer).
+TEST(SemanticThread, RealtimeRateLimitBoundsSegmentations) {
+  constexpr double kRateHz = 20.0;
+  SemanticThread thread(std::make_unique<FakeSegmenter>(0ms), SemanticMode::kRealtime, kRateHz);
+  const auto start = std::chrono::steady_clock::now();
+  for (std::uint64_t id = 0; id < 150; ++id) {
+    thread.submit(id, frameImage(id), frameName(id));
+    std::this_thread::sleep_for(2ms);
+  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  thread.stop();
+  EXPECT_GE(thread.segmentedCount(), 1u);
+  EXPECT_LE(static_cast<double>(thread.segmentedCount()), seconds * kRateHz + 2.0);
+}
+
 }  // namespace
 }  // namespace desslam::semantic
