@@ -1,5 +1,7 @@
 #include "dense/dense_thread.hpp"
 
+#include "core/thread_priority.hpp"
+
 #include <chrono>
 #include <ctime>
 
@@ -18,18 +20,15 @@ double threadCpuMilliseconds() {
 
 DenseMappingThread::DenseMappingThread(const DenseOptions& options, const PinholeCamera& camera,
                                        QueueFullPolicy full_policy)
-    : queue_(static_cast<size_t>(options.queue_capacity), full_policy), map_(options, camera) {
+    : full_policy_(full_policy), queue_(static_cast<size_t>(options.queue_capacity), full_policy), map_(options, camera) {
   worker_ = std::thread([this] { run(); });
 }
 
 DenseMappingThread::~DenseMappingThread() { stop(); }
 
 bool DenseMappingThread::push(std::shared_ptr<const DenseKeyframe> keyframe) {
-  {
-    std::lock_guard lock(map_mutex_);
-    if (stopped_) return false;
-    ++pushed_;  // counted first so waitUntilIdle() never misses a keyframe in flight
-  }
+  if (stopped_) return false;
+  ++pushed_;  // counted first so waitUntilIdle() never misses a keyframe in flight
   if (queue_.push(std::move(keyframe))) return true;
   std::lock_guard lock(map_mutex_);
   --pushed_;
@@ -38,6 +37,8 @@ bool DenseMappingThread::push(std::shared_ptr<const DenseKeyframe> keyframe) {
 }
 
 void DenseMappingThread::run() {
+  // Real time (keyframes may be dropped): the map is the least urgent work; yield to tracking.
+  if (full_policy_ == QueueFullPolicy::kDropOldest) lowerCurrentThreadPriority(10);
   size_t seen_dropped = 0;
   while (auto message = queue_.pop()) {
     const DenseKeyframe& keyframe = **message;
@@ -66,14 +67,20 @@ void DenseMappingThread::run() {
 }
 
 void DenseMappingThread::updatePoses(const PoseMap& T_w_c_by_id) {
-  std::lock_guard lock(map_mutex_);
-  for (const auto& [id, pose] : T_w_c_by_id) {
-    pose_overrides_.insert_or_assign(id, pose);
-    pending_poses_.insert_or_assign(id, pose);
-  }
+  std::lock_guard lock(inbox_mutex_);
+  for (const auto& [id, pose] : T_w_c_by_id) inbox_poses_.insert_or_assign(id, pose);
 }
 
 void DenseMappingThread::applyPendingPoses() const {
+  PoseMap received;
+  {
+    std::lock_guard lock(inbox_mutex_);
+    received.swap(inbox_poses_);
+  }
+  for (const auto& [id, pose] : received) {
+    pose_overrides_.insert_or_assign(id, pose);
+    pending_poses_.insert_or_assign(id, pose);
+  }
   if (pending_poses_.empty()) return;
   map_.updatePoses(pending_poses_);
   pending_poses_.clear();

@@ -1,18 +1,23 @@
 // Dense mapping thread: keyframes come in through a bounded queue, the worker back-projects
 // them and integrates them into a DenseMap; pose updates, culling and export go through here.
 //
-// Lock discipline (two locks, never held together):
+// Lock discipline:
 //  - the queue's own mutex (BoundedQueue) guards only the queue;
-//  - map_mutex_ guards map_, pose_overrides_, pending_poses_, culled_ids_, the timings and the
-//    counters. The worker back-projects BEFORE taking it and holds it while applying pending
-//    poses (a re-key is linear in the moved voxels) and merging the keyframe into the voxel map;
-//    exportCloud() holds it while extracting the voxels (linear in the voxel count) and runs
-//    the outlier filter after releasing it. updatePoses() only records poses under it.
+//  - map_mutex_ guards map_, pose_overrides_, pending_poses_, culled_ids_, the timings and
+//    processed_. The worker back-projects BEFORE taking it and holds it while applying pending
+//    poses (a re-key is linear in the moved voxels) and merging the keyframe into the voxel map
+//    (with free-space carving: up to a few hundred ms); exportCloud() holds it while extracting
+//    the voxels and runs the outlier filter after releasing it;
+//  - inbox_mutex_ guards only inbox_poses_: updatePoses() takes nothing else, and push() takes
+//    no lock but the queue's (pushed_ and stopped_ are atomics), so the tracking thread never
+//    waits for the worker's merge. Order: map_mutex_ -> inbox_mutex_ (the worker moves the inbox
+//    into pending_poses_ while holding map_mutex_), never the reverse.
 // Queue: capacity DenseOptions::queue_capacity; full policy kBlock (offline: every keyframe is
 // mapped; the producer waits) or kDropOldest (real time: the oldest waiting keyframe is dropped,
 // counted in droppedCount()).
 #pragma once
 
+#include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <map>
@@ -77,20 +82,23 @@ class DenseMappingThread {
  private:
   void run();
 
+  const QueueFullPolicy full_policy_;  // kDropOldest = real time: the worker runs at lower priority
   BoundedQueue<std::shared_ptr<const DenseKeyframe>> queue_;
   mutable std::mutex map_mutex_;
   mutable std::condition_variable idle_;
-  void applyPendingPoses() const;  // requires map_mutex_
+  void applyPendingPoses() const;  // requires map_mutex_; drains the inbox first
 
   mutable DenseMap map_;         // mutable: const readers first apply pending poses
-  PoseMap pose_overrides_;       // newest poses, also for keyframes not yet mapped
+  mutable PoseMap pose_overrides_;  // newest poses, also for keyframes not yet mapped
   mutable PoseMap pending_poses_;  // sent but not yet applied to map_
+  mutable std::mutex inbox_mutex_;
+  mutable PoseMap inbox_poses_;    // guarded by inbox_mutex_: received, not yet in pending_poses_
   std::set<uint64_t> culled_ids_;  // culled before the worker mapped them
   std::vector<double> keyframe_ms_;
   std::vector<double> keyframe_cpu_ms_;
-  size_t pushed_ = 0;            // guarded by map_mutex_
+  std::atomic<size_t> pushed_{0};
   size_t processed_ = 0;         // guarded by map_mutex_
-  bool stopped_ = false;         // guarded by map_mutex_
+  std::atomic<bool> stopped_{false};
   std::mutex stop_mutex_;        // serialises stop() callers only
   std::thread worker_;
 };

@@ -78,6 +78,7 @@ class LocalMappingThread {
   ~LocalMappingThread();
   void push(map::Keyframe* kf);
   bool idle() const { return pending_.load() == 0; }
+  int backlog() const { return pending_.load(); }  // keyframes queued or being processed
   // Blocks until every pushed keyframe has been processed.
   void waitUntilIdle();
   void stop();  // drains the queue and joins

@@ -1,5 +1,7 @@
 #include "semantic/semantic_thread.hpp"
 
+#include "core/thread_priority.hpp"
+
 #include <chrono>
 #include <stdexcept>
 
@@ -118,6 +120,8 @@ std::size_t SemanticThread::storedResultCount() const {
 }
 
 void SemanticThread::run() {
+  // Real time: tracking never waits for the network, so the network yields the CPU to it.
+  if (mode_ == SemanticMode::kRealtime) lowerCurrentThreadPriority(5);
   for (;;) {
     Job job;
     {

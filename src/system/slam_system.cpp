@@ -163,7 +163,8 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
 
   const auto track_start = std::chrono::steady_clock::now();
   const bool mapping_idle = mapping_thread_ == nullptr || mapping_thread_->idle();
-  const tracking::TrackOutcome outcome = tracker_.track(frame, mapping_idle);
+  const int mapping_backlog = mapping_thread_ == nullptr ? 0 : mapping_thread_->backlog();
+  const tracking::TrackOutcome outcome = tracker_.track(frame, mapping_idle, mapping_backlog);
   stats.tracking_ms = millisecondsSince(track_start);
   stats.tracked = outcome.tracked;
   stats.stage1_checked = outcome.stage1_checked;

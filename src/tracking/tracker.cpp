@@ -38,7 +38,7 @@ Tracker::Tracker(const SystemOptions& options, const PinholeCamera& camera, map:
   stage1_enabled_ = stage2_enabled_ = mode == "full" || mode == "geometric";
 }
 
-TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle) {
+TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_backlog) {
   TrackOutcome outcome;
   if (state_ == TrackingState::kNotInitialized) {
     initialize(frame, outcome);
@@ -125,7 +125,7 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle) {
     velocity_ = frame.T_c_w * last_frame_.T_c_w.inverse();
     velocity_interval_s_ = frame.timestamp - last_frame_.timestamp;
   }
-  if (needKeyframe(frame, inliers, mapping_idle)) outcome.new_keyframe = createKeyframe(frame);
+  if (needKeyframe(frame, inliers, mapping_idle, mapping_backlog)) outcome.new_keyframe = createKeyframe(frame);
 
   {
     std::shared_lock lock(map_.mutex());
@@ -411,8 +411,9 @@ bool Tracker::trackLocalMap(map::Frame& frame, int& inliers) {
   return inliers >= kMinLocalMapInliers;
 }
 
-bool Tracker::needKeyframe(const map::Frame& frame, int inliers, bool mapping_idle) const {
+bool Tracker::needKeyframe(const map::Frame& frame, int inliers, bool mapping_idle, int mapping_backlog) const {
   const auto& t = options_.tracking;
+  if (mapping_backlog >= kMaxMappingBacklog && inliers >= kMinLocalMapInliers) return false;
   const uint64_t since_last = frame.id - last_keyframe_frame_id_;
   if (static_cast<int>(since_last) < t.min_frames_between_keyframes) return false;
 

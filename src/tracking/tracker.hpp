@@ -48,8 +48,11 @@ class Tracker {
           const loop::KeyframeDatabase* database = nullptr);
 
   // frame.features and frame.status are set; writes frame.T_c_w and frame.matches.
-  // mapping_idle: local mapping has no keyframe waiting (a keyframe criterion).
-  TrackOutcome track(map::Frame& frame, bool mapping_idle);
+  // mapping_idle: local mapping has no keyframe waiting (a keyframe criterion). mapping_backlog:
+  // keyframes queued or in work there; from kMaxMappingBacklog on, no keyframe is made while
+  // tracking holds (real time: a queue that only grows would block tracking).
+  static constexpr int kMaxMappingBacklog = 2;
+  TrackOutcome track(map::Frame& frame, bool mapping_idle, int mapping_backlog = 0);
 
   TrackingState state() const { return state_; }
   const std::vector<FrameRecord>& records() const { return records_; }
@@ -80,7 +83,7 @@ class Tracker {
   // Pose-only optimisation on the frame's matches; drops outliers. Returns map-point inliers.
   int optimizeFramePose(map::Frame& frame);
   void updateLocalMap(const map::Frame& frame);
-  bool needKeyframe(const map::Frame& frame, int inliers, bool mapping_idle) const;
+  bool needKeyframe(const map::Frame& frame, int inliers, bool mapping_idle, int mapping_backlog) const;
   map::Keyframe* createKeyframe(map::Frame& frame);
   cv::Mat halfDepthFor(const map::Frame& frame) const;
   void createDepthPoints(map::Frame& frame, map::Keyframe* kf);  // exclusive lock held
