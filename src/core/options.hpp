@@ -122,6 +122,11 @@ struct DynamicOptions {
   // ~2.5 px here) and a walking person is motion-blurred: with 5 px the matched features along
   // silhouettes dragged the Bonn crowd pose with the walkers (ATE 0.49 m), with 15 px 0.026 m.
   int mask_dilation_px = 15;
+  // Real time: a mask carried forward from an older frame follows the camera but not the people
+  // (a walker crosses ~10 px per frame at 2-3 m), so it grows by this much more per frame of age.
+  // Bonn crowd --realtime: 0 px -> ATE 0.047-0.129 m, 8 px -> 0.063 / 0.063, 12 px -> 0.019 /
+  // 0.064 / 0.030 (the network segments ~1 frame in 4 there).
+  int carried_mask_growth_px = 12;
   // Stage 1 correspondence: a masked feature of frame k is matched to frame k-1's features by
   // descriptor within this window (pixels at level 0, scaled by the keypoint's level) around
   // where frame k-1 saw it if it were static; moving objects land a few pixels off.
@@ -145,7 +150,8 @@ struct DynamicOptions {
   static constexpr const char* kSection = "dynamic";
   template <class V> void fields(V& v) {
     v("mode", mode); v("stage1_threshold", stage1_threshold); v("stage2_threshold", stage2_threshold);
-    v("mask_dilation_px", mask_dilation_px); v("stage1_search_radius_px", stage1_search_radius_px);
+    v("mask_dilation_px", mask_dilation_px); v("carried_mask_growth_px", carried_mask_growth_px);
+    v("stage1_search_radius_px", stage1_search_radius_px);
     v("stage1_max_descriptor_distance", stage1_max_descriptor_distance);
     v("stage1_match_ratio", stage1_match_ratio); v("stage1_unmatched_policy", stage1_unmatched_policy);
     v("stage2_keyframes", stage2_keyframes); v("stage1_min_interval_s", stage1_min_interval_s);

@@ -123,7 +123,8 @@ cv::Mat SlamSystem::maskFor(uint64_t frame_id, const cv::Mat& depth, FrameStats&
     last_labels_ = cv::Mat();
   }
   if (mask.empty()) return {};
-  return dynamic::dilateMask(mask, options_.dynamic.mask_dilation_px);
+  const int age = std::max(0, stats.mask_age);
+  return dynamic::dilateMask(mask, options_.dynamic.mask_dilation_px + age * options_.dynamic.carried_mask_growth_px);
 }
 
 void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv::Mat& depth,
