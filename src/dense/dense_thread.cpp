@@ -1,11 +1,11 @@
 #include "dense/dense_thread.hpp"
 
-#include "core/thread_priority.hpp"
-
 #include <chrono>
 #include <ctime>
 
 #include <open3d/geometry/PointCloud.h>
+
+#include "core/thread_priority.hpp"
 
 namespace desslam::dense {
 namespace {

@@ -1,11 +1,10 @@
 #include "semantic/semantic_thread.hpp"
 
-#include "core/thread_priority.hpp"
-
 #include <chrono>
 #include <stdexcept>
 
 #include "core/error.hpp"
+#include "core/thread_priority.hpp"
 
 namespace desslam::semantic {
 

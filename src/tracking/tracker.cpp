@@ -26,6 +26,13 @@ constexpr size_t kRecoveryKeyframes = 8;   // when lost, the newest keyframes tr
 constexpr double kStillTranslation = 0.005;        // metres per frame below which motion is negligible
 constexpr double kStillRotation = 0.5 * M_PI / 180;  // radians per frame
 // Keyframes keep a half-resolution depth image only when stage 2 will look at it.
+
+// Without a tracked frame just before this one, stage 1 cannot vouch for masked features: they
+// stay out of the pose and the map.
+void keepUnverifiedMaskedFeaturesOut(map::Frame& frame) {
+  for (auto& status : frame.status)
+    if (status == map::FeatureStatus::kPendingStage1) status = map::FeatureStatus::kDynamicMask;
+}
 }  // namespace
 
 Tracker::Tracker(const SystemOptions& options, const PinholeCamera& camera, map::Map& map,
@@ -89,14 +96,10 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     frame.clearMatches();
     frame.T_c_w = velocity_ ? motionOver(frame.timestamp - last_frame_.timestamp) * last_frame_.T_c_w : last_frame_.T_c_w;
   }
-  if (stage1_enabled_ && !recovering) {
+  if (recovering)
+    keepUnverifiedMaskedFeaturesOut(frame);  // as for the first frame
+  else if (stage1_enabled_)
     applyStage1(frame, outcome);
-  } else if (stage1_enabled_) {
-    // No tracked frame just before this one to compare with: as for the first frame, masked
-    // features stay out.
-    for (auto& status : frame.status)
-      if (status == map::FeatureStatus::kPendingStage1) status = map::FeatureStatus::kDynamicMask;
-  }
   int inliers = 0;
   if (ok || use_prediction) ok = trackLocalMap(frame, inliers);
   if (ok && stage2_enabled_) {
@@ -145,9 +148,7 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
 }
 
 bool Tracker::initialize(map::Frame& frame, TrackOutcome& outcome) {
-  // Without a previous frame stage 1 cannot vouch for masked features: keep them out of the map.
-  for (auto& status : frame.status)
-    if (status == map::FeatureStatus::kPendingStage1) status = map::FeatureStatus::kDynamicMask;
+  keepUnverifiedMaskedFeaturesOut(frame);
   int with_depth = 0;
   for (size_t i = 0; i < frame.features->size(); ++i)
     if (frame.usable(i) && frame.features->hasDepth(i)) ++with_depth;

@@ -4,6 +4,7 @@
 #include <opencv2/core.hpp>
 
 #include "core/camera.hpp"
+#include "core/options.hpp"
 #include "core/se3.hpp"
 #include "dense/dense_keyframe.hpp"
 
@@ -35,6 +36,13 @@ inline cv::Mat planeDepth(const PinholeCamera& camera, const SE3& T_w_c, const V
     }
   }
   return depth;
+}
+
+// Dense options without the statistical outlier filter, so tests see every fused point.
+inline DenseOptions noFilterOptions() {
+  DenseOptions o;
+  o.outlier_neighbors = 0;
+  return o;
 }
 
 inline DenseKeyframe planeKeyframe(const PinholeCamera& camera, uint64_t id, Timestamp t, const SE3& T_w_c,

@@ -15,14 +15,9 @@
 namespace desslam::dense {
 namespace {
 
+using test::noFilterOptions;
 using test::planeKeyframe;
 using test::smallCamera;
-
-DenseOptions noFilterOptions() {
-  DenseOptions o;
-  o.outlier_neighbors = 0;
-  return o;
-}
 
 // Camera at the origin looking along +z at a plane tilted 30 degrees about x.
 TEST(BackProjector, PlanePointsLieOnThePlaneAndCountFollowsTheStride) {

@@ -21,14 +21,9 @@ namespace desslam::dense {
 namespace {
 
 namespace fs = std::filesystem;
+using test::noFilterOptions;
 using test::planeKeyframe;
 using test::smallCamera;
-
-DenseOptions noFilterOptions() {
-  DenseOptions o;
-  o.outlier_neighbors = 0;
-  return o;
-}
 
 // The same static view of a wall 2 m away as n keyframes, each pose off by up to 2 mm / 0.05
 // deg (what tracking noise does to a still camera). Every pixel is mapped (0.8 cm apart on the
