@@ -46,6 +46,8 @@ struct RunArgs {
   std::string debug_images;
   std::string map_color = "rgb";
   std::string skip_frames;  // "FIRST-LAST" or empty
+  int mask_latency = 0;     // --emulate-mask-latency
+  int mask_period = 1;      // --emulate-mask-period
 };
 
 // Frames [first, last] (0-based indices into the paired frame list) withheld from the system.
@@ -112,6 +114,8 @@ void runSequence(const RunArgs& args) {
   settings.deterministic = args.deterministic;
   settings.realtime = args.realtime;
   settings.debug_images_dir = args.debug_images;
+  settings.mask_latency_frames = args.mask_latency;
+  settings.mask_period_frames = args.mask_period;
   if (args.deterministic && args.realtime)
     throw ConfigError("--deterministic and --realtime exclude each other: real-time mode never waits for a stage");
   system::SlamSystem slam(options, settings);
@@ -176,6 +180,9 @@ void runSequence(const RunArgs& args) {
   report["settings"] = io::optionsToJson(options);
   report["settings"]["skip_frames"] =
       skipped ? nlohmann::json{{"first", skipped->first}, {"last", skipped->last}} : nlohmann::json(nullptr);
+  report["settings"]["emulated_mask_latency"] =
+      args.mask_latency > 0 ? nlohmann::json{{"frames", args.mask_latency}, {"period", args.mask_period}}
+                            : nlohmann::json(nullptr);
   report["statistics"] = slam.statistics();
   // per_frame lists the frames the system got; with --skip-frames their sequence index differs.
   if (auto& per_frame = report["statistics"]["per_frame"]; per_frame.is_array())
@@ -233,6 +240,15 @@ void registerRunCommand(CLI::App& app) {
   cmd->add_flag("--quiet,-q", args->quiet, "No progress line or summary");
   cmd->add_flag("--realtime", args->realtime,
                 "Feed frames at the sensor's rate; tracking never waits for segmentation");
+  cmd->add_option("--emulate-mask-latency", args->mask_latency,
+                  "Offline: frame k uses the mask of the newest frame s <= k - N (s a multiple of "
+                  "--emulate-mask-period), carried forward as in --realtime; with --deterministic, real time's "
+                  "stale masks reproducibly")
+      ->check(CLI::Range(0, 100));
+  cmd->add_option("--emulate-mask-period", args->mask_period, "Offline: only every Nth frame's mask is used (see "
+                  "--emulate-mask-latency)")
+      ->check(CLI::Range(1, 100))
+      ->capture_default_str();
   cmd->add_option("--dynamic", args->dynamic_mode,
                   "Dynamic-feature removal: off | semantic | geometric | full (default: config, full)")
       ->check(CLI::IsMember({"off", "semantic", "geometric", "full"}));

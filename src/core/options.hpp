@@ -127,6 +127,10 @@ struct DynamicOptions {
   // Bonn crowd --realtime: 0 px -> ATE 0.047-0.129 m, 8 px -> 0.063 / 0.063, 12 px -> 0.019 /
   // 0.064 / 0.030 (the network segments ~1 frame in 4 there).
   int carried_mask_growth_px = 12;
+  // ... up to this much in all: under load the newest mask can be 10-20 frames old, and a mask
+  // grown over the whole image leaves tracking nothing outside it (the free-space test catches
+  // the parts of walkers that left an old mask).
+  int carried_mask_max_growth_px = 36;
   // Stage 1 correspondence: a masked feature of frame k is matched to frame k-1's features by
   // descriptor within this window (pixels at level 0, scaled by the keypoint's level) around
   // where frame k-1 saw it if it were static; moving objects land a few pixels off.
@@ -146,16 +150,27 @@ struct DynamicOptions {
   // A masked feature whose matched 3-D point re-projects farther than this (pixels at level 0,
   // scaled by its level) from it has moved in the image: dynamic, whatever its depth says.
   double stage1_max_reprojection_px = 4.0;
+  // When people fill most of the view, the ORB budget (orb.num_features, spread evenly over the
+  // image) leaves few features on the static background, and tracking is lost once stage 1 has
+  // removed the people's. A frame with fewer features than this outside its (dilated) mask gets
+  // this many more extracted outside it (duplicates skipped). 0 = off.
+  int min_features_outside_mask = 500;
+  // Full mode: features outside the mask go through the correspondence-free free-space test
+  // (dynamic::freeSpaceViolations): the network misses legs and arms.
+  bool free_space_outside_mask = true;
 
   static constexpr const char* kSection = "dynamic";
   template <class V> void fields(V& v) {
     v("mode", mode); v("stage1_threshold", stage1_threshold); v("stage2_threshold", stage2_threshold);
     v("mask_dilation_px", mask_dilation_px); v("carried_mask_growth_px", carried_mask_growth_px);
+    v("carried_mask_max_growth_px", carried_mask_max_growth_px);
     v("stage1_search_radius_px", stage1_search_radius_px);
     v("stage1_max_descriptor_distance", stage1_max_descriptor_distance);
     v("stage1_match_ratio", stage1_match_ratio); v("stage1_unmatched_policy", stage1_unmatched_policy);
     v("stage2_keyframes", stage2_keyframes); v("stage1_min_interval_s", stage1_min_interval_s);
     v("stage1_max_reprojection_px", stage1_max_reprojection_px);
+    v("min_features_outside_mask", min_features_outside_mask);
+    v("free_space_outside_mask", free_space_outside_mask);
   }
   void validate() const;
 };

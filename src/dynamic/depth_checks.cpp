@@ -194,6 +194,39 @@ Stage1Result runStage1(const Stage1Input& input, const PinholeCamera& camera, co
   return r;
 }
 
+std::vector<uint8_t> freeSpaceViolations(const FreeSpaceInput& input, const PinholeCamera& camera,
+                                         const DynamicOptions& options) {
+  if (input.current == nullptr) throw InputError("freeSpaceViolations: the current feature set is required");
+  requireDepth(input.reference_depth, "freeSpaceViolations reference_depth");
+  const map::FeatureSet& current = *input.current;
+  const cv::Mat& depth = *input.reference_depth;
+  const size_t n = current.size();
+  if (input.test != nullptr && input.test->size() != n)
+    throw InputError("freeSpaceViolations: test has " + std::to_string(input.test->size()) + " entries for " +
+                     std::to_string(n) + " features");
+  constexpr int kWindowRadius = 2;
+  std::vector<uint8_t> dynamic(n, 0);
+  for (size_t i = 0; i < n; ++i) {
+    if ((input.test != nullptr && !(*input.test)[i]) || !current.hasDepth(i)) continue;
+    const Vec3 p_ref = input.T_ref_k * camera.backProject(current.uv[i], current.depth[i]);
+    const double d_ref = p_ref.z();
+    if (d_ref <= 0) continue;
+    const Vec2 uv = camera.project(p_ref);
+    if (!camera.inImage(uv)) continue;
+    const Vec2 raw = camera.distort(uv);
+    const int x = roundPixel(raw.x()), y = roundPixel(raw.y());
+    float nearest = 0;
+    for (int yy = std::max(0, y - kWindowRadius); yy <= std::min(depth.rows - 1, y + kWindowRadius); ++yy) {
+      const float* row = depth.ptr<float>(yy);
+      for (int xx = std::max(0, x - kWindowRadius); xx <= std::min(depth.cols - 1, x + kWindowRadius); ++xx)
+        if (row[xx] > 0 && (nearest <= 0 || row[xx] < nearest)) nearest = row[xx];
+    }
+    if (nearest <= 0 || nearest <= d_ref) continue;
+    if (exceeds(relativeDepthResidual(nearest, d_ref), options.stage1_threshold)) dynamic[i] = 1;
+  }
+  return dynamic;
+}
+
 cv::Mat makeHalfResolutionDepth(const cv::Mat& depth_m) {
   if (depth_m.empty() || depth_m.type() != CV_32FC1)
     throw InputError("makeHalfResolutionDepth: expected a CV_32F depth image in metres");

@@ -104,6 +104,32 @@ struct Stage1Result {
 Stage1Result runStage1(const Stage1Input& input, const PinholeCamera& camera, const DynamicOptions& options);
 
 // ---------------------------------------------------------------------------------------------
+// Stage 1, outside the mask: the free-space test
+//
+// The network labels a 257x257 image and misses parts of people (legs against the floor, an arm,
+// someone at the image border); features there lie outside the mask, and dragged the Bonn crowd
+// pose while the camera stood still. Descriptor correspondence cannot vouch for them (a leg moves
+// further in stage1_min_interval_s than any search window), so this test needs none: were the
+// feature's 3-D point (frame k, depth z_k) static, the reference frame would have seen it at
+// depth d_ref at pixel x'. When even the NEAREST valid reading in a 5x5 window around x' is
+// farther, |1 - d_ref / z_near| > stage1_threshold with z_near > d_ref, the reference frame saw
+// through the place where the point is now: it moved there. A nearer reading (something in front)
+// is no evidence, as in stage 2; taking the nearest reading keeps a static point at a depth edge,
+// a pixel or two of pose error away from the background, from being called dynamic.
+struct FreeSpaceInput {
+  const map::FeatureSet* current = nullptr;
+  const cv::Mat* reference_depth = nullptr;  // CV_32F metres, raw pixels
+  SE3 T_ref_k;                               // frame k -> reference frame
+  const std::vector<uint8_t>* test = nullptr;  // per feature of current: 1 = test it (null: all)
+};
+
+// Per feature: 1 when the reference frame saw through its point (dynamic). Features without depth,
+// not to be tested, behind the reference camera, outside its image or without a reading there
+// get 0. Throws InputError for a missing input or a wrong depth type / test length.
+std::vector<uint8_t> freeSpaceViolations(const FreeSpaceInput& input, const PinholeCamera& camera,
+                                         const DynamicOptions& options);
+
+// ---------------------------------------------------------------------------------------------
 // Stage 2
 
 // Keyframes keep a half-resolution depth image for stage 2. Chosen format: CV_32F metres (the

@@ -29,7 +29,9 @@ struct LevelCandidates {
 // FAST corners of one level: the whole level at the initial threshold, then cells of the grid that
 // got nothing are searched again at the minimum threshold. One whole-image pass is cheaper than a
 // pass per cell, and gives the same corners away from cell borders.
-LevelCandidates detectLevel(const cv::Mat& image, const OrbOptions& options) {
+// exclude: empty, or a level-0 mask (nonzero = no keypoints there), `scale` = level-0 pixels per
+// level pixel.
+LevelCandidates detectLevel(const cv::Mat& image, const OrbOptions& options, const cv::Mat& exclude, double scale) {
   LevelCandidates out;
   const int width = image.cols - 2 * kEdge, height = image.rows - 2 * kEdge;
   if (width <= 0 || height <= 0) return out;
@@ -44,7 +46,11 @@ LevelCandidates detectLevel(const cv::Mat& image, const OrbOptions& options) {
     return r * cols + c;
   };
   const auto inRegion = [&](const cv::Point2f& p) {
-    return p.x >= kEdge && p.x < kEdge + width && p.y >= kEdge && p.y < kEdge + height;
+    if (p.x < kEdge || p.x >= kEdge + width || p.y < kEdge || p.y >= kEdge + height) return false;
+    if (exclude.empty()) return true;
+    const int x = std::min(exclude.cols - 1, static_cast<int>(p.x * scale + 0.5));
+    const int y = std::min(exclude.rows - 1, static_cast<int>(p.y * scale + 0.5));
+    return exclude.at<uint8_t>(y, x) == 0;
   };
 
   std::vector<cv::KeyPoint> found;
@@ -63,6 +69,14 @@ LevelCandidates detectLevel(const cv::Mat& image, const OrbOptions& options) {
       const float x0 = kEdge + c * cell_w, y0 = kEdge + r * cell_h;
       const float x1 = c + 1 == cols ? kEdge + width : x0 + cell_w;
       const float y1 = r + 1 == rows ? kEdge + height : y0 + cell_h;
+      if (!exclude.empty()) {
+        // A cell wholly inside the excluded region has nothing to offer.
+        const cv::Rect cell_level0 = cv::Rect(cv::Point(static_cast<int>(x0 * scale), static_cast<int>(y0 * scale)),
+                                              cv::Point(static_cast<int>(std::ceil(x1 * scale)),
+                                                        static_cast<int>(std::ceil(y1 * scale)))) &
+                                     cv::Rect(0, 0, exclude.cols, exclude.rows);
+        if (cell_level0.area() == 0 || cv::countNonZero(exclude(cell_level0)) == cell_level0.area()) continue;
+      }
       // Widen by FAST's radius so corners on the cell's own border pixels can be found.
       const int rx0 = std::max(0, static_cast<int>(std::floor(x0)) - kFastRadius);
       const int ry0 = std::max(0, static_cast<int>(std::floor(y0)) - kFastRadius);
@@ -73,7 +87,8 @@ LevelCandidates detectLevel(const cv::Mat& image, const OrbOptions& options) {
       for (cv::KeyPoint& kp : found) {
         kp.pt.x += rx0;
         kp.pt.y += ry0;
-        if (kp.pt.x >= x0 && kp.pt.x < x1 && kp.pt.y >= y0 && kp.pt.y < y1) out.keypoints.push_back(kp);
+        if (kp.pt.x >= x0 && kp.pt.x < x1 && kp.pt.y >= y0 && kp.pt.y < y1 && inRegion(kp.pt))
+          out.keypoints.push_back(kp);
       }
     }
   }
@@ -138,6 +153,27 @@ OrbExtractor::OrbExtractor(const OrbOptions& options) : options_(options) {
 }
 
 void OrbExtractor::extract(const cv::Mat& gray, std::vector<cv::KeyPoint>& keypoints, cv::Mat& descriptors) const {
+  extractImpl(gray, cv::Mat(), features_per_level_, keypoints, descriptors);
+}
+
+void OrbExtractor::extractOutside(const cv::Mat& gray, const cv::Mat& exclude, int num_features,
+                                  std::vector<cv::KeyPoint>& keypoints, cv::Mat& descriptors) const {
+  if (exclude.type() != CV_8UC1 || exclude.size() != gray.size())
+    throw InputError("OrbExtractor::extractOutside: the exclusion mask must be CV_8UC1 of the image's size " +
+                     std::to_string(gray.cols) + "x" + std::to_string(gray.rows));
+  // The same split over levels as num_features, scaled.
+  std::vector<int> wanted(features_per_level_.size());
+  int assigned = 0;
+  for (size_t l = 0; l + 1 < wanted.size(); ++l) {
+    wanted[l] = static_cast<int>(std::lround(double(features_per_level_[l]) * num_features / options_.num_features));
+    assigned += wanted[l];
+  }
+  wanted.back() = std::max(0, num_features - assigned);
+  extractImpl(gray, exclude, wanted, keypoints, descriptors);
+}
+
+void OrbExtractor::extractImpl(const cv::Mat& gray, const cv::Mat& exclude, const std::vector<int>& wanted,
+                               std::vector<cv::KeyPoint>& keypoints, cv::Mat& descriptors) const {
   keypoints.clear();
   if (gray.empty() || gray.type() != CV_8UC1) {
     throw InputError("OrbExtractor::extract: expected a non-empty 8-bit single-channel (CV_8UC1) image, got " +
@@ -157,8 +193,8 @@ void OrbExtractor::extract(const cv::Mat& gray, std::vector<cv::KeyPoint>& keypo
 
   std::vector<LevelCandidates> candidates(levels);
   for (int l = 0; l < levels; ++l)
-    if (!images[l].empty()) candidates[l] = detectLevel(images[l], options_);
-  const std::vector<int> quota = levelQuotas(features_per_level_, candidates);
+    if (!images[l].empty()) candidates[l] = detectLevel(images[l], options_, exclude, pyramid_.scale[l]);
+  const std::vector<int> quota = levelQuotas(wanted, candidates);
 
   // Selected keypoints in level coordinates, level by level; class_id = output row.
   std::vector<std::vector<cv::KeyPoint>> selected(levels);
@@ -225,6 +261,34 @@ void OrbExtractor::extract(const cv::Mat& gray, std::vector<cv::KeyPoint>& keypo
     descriptors.create(static_cast<int>(kept_rows.size()), kDescriptorBytes, CV_8U);
     for (int k = 0; k < static_cast<int>(kept_rows.size()); ++k) rows.row(kept_rows[k]).copyTo(descriptors.row(k));
   }
+}
+
+int appendDistinctKeypoints(std::vector<cv::KeyPoint>& keypoints, cv::Mat& descriptors,
+                            const std::vector<cv::KeyPoint>& extra, const cv::Mat& extra_descriptors,
+                            const ScalePyramid& pyramid) {
+  const size_t existing = keypoints.size();
+  std::vector<int> rows;
+  for (size_t i = 0; i < extra.size(); ++i) {
+    const cv::KeyPoint& e = extra[i];
+    const double tolerance = pyramid.scale[std::clamp(e.octave, 0, pyramid.levels() - 1)];  // 1 level pixel
+    bool duplicate = false;
+    for (size_t k = 0; k < existing && !duplicate; ++k) {
+      const cv::KeyPoint& kp = keypoints[k];
+      duplicate = kp.octave == e.octave && std::abs(kp.pt.x - e.pt.x) <= tolerance &&
+                  std::abs(kp.pt.y - e.pt.y) <= tolerance;
+    }
+    if (duplicate) continue;
+    keypoints.push_back(e);
+    rows.push_back(static_cast<int>(i));
+  }
+  if (rows.empty()) return 0;
+  cv::Mat appended(static_cast<int>(rows.size()), extra_descriptors.cols, extra_descriptors.type());
+  for (size_t r = 0; r < rows.size(); ++r) extra_descriptors.row(rows[r]).copyTo(appended.row(static_cast<int>(r)));
+  if (descriptors.empty())
+    descriptors = appended;
+  else
+    cv::vconcat(descriptors, appended, descriptors);
+  return static_cast<int>(rows.size());
 }
 
 }  // namespace desslam::feature

@@ -23,16 +23,34 @@ class OrbExtractor {
   // Const and reentrant: several threads may call extract() on one extractor at once.
   void extract(const cv::Mat& gray, std::vector<cv::KeyPoint>& keypoints, cv::Mat& descriptors) const;
 
+  // As extract(), but only corners outside `exclude` (CV_8U of gray's size, nonzero = excluded),
+  // num_features of them spread over the levels and the image as extract() spreads its own.
+  // Used to spend more of the feature budget on the static background when a person fills most
+  // of the view. Throws InputError for a wrong exclude type or size.
+  void extractOutside(const cv::Mat& gray, const cv::Mat& exclude, int num_features,
+                      std::vector<cv::KeyPoint>& keypoints, cv::Mat& descriptors) const;
+
   const ScalePyramid& pyramid() const { return pyramid_; }
   const OrbOptions& options() const { return options_; }
   // Wanted keypoints per level (sum = num_features): a geometric series in the level's area.
   const std::vector<int>& featuresPerLevel() const { return features_per_level_; }
 
  private:
+  // exclude: empty or as in extractOutside(); wanted: keypoints per level.
+  void extractImpl(const cv::Mat& gray, const cv::Mat& exclude, const std::vector<int>& wanted,
+                   std::vector<cv::KeyPoint>& keypoints, cv::Mat& descriptors) const;
+
   OrbOptions options_;
   ScalePyramid pyramid_;
   std::vector<int> features_per_level_;
   std::vector<int> circle_half_width_;  // half width of the orientation disc per row offset |dy|
 };
+
+// Appends to (keypoints, descriptors) the extra keypoints that do not coincide with one already
+// there (same octave, within 1 pixel of that level), with their descriptor rows. Returns how many
+// were appended.
+int appendDistinctKeypoints(std::vector<cv::KeyPoint>& keypoints, cv::Mat& descriptors,
+                            const std::vector<cv::KeyPoint>& extra, const cv::Mat& extra_descriptors,
+                            const ScalePyramid& pyramid);
 
 }  // namespace desslam::feature

@@ -37,7 +37,6 @@ nlohmann::json summarizeMilliseconds(std::vector<double> values) {
 }
 
 namespace {
-constexpr size_t kRecentFrames = 30;        // history for carrying masks forward
 constexpr int kDynamicFeatureRadius = 12;   // pixels left out of the dense map around a dynamic feature
 
 bool usesMask(const std::string& mode) { return mode == "semantic" || mode == "full"; }
@@ -60,6 +59,10 @@ SlamSystem::SlamSystem(const SystemOptions& options, const RunSettings& settings
       tracker_(options, camera_, map_, keyframe_db_.get()),
       mapper_(options, camera_, map_, keyframe_db_.get()) {
   options_.validate();
+  if (settings_.mask_latency_frames < 0 || settings_.mask_period_frames < 1 ||
+      (settings_.mask_latency_frames > 0 && settings_.realtime))
+    throw ConfigError("mask latency emulation: latency must be >= 0 and period >= 1, and real-time mode has its own "
+                      "latency (leave the emulation off with --realtime)");
   if (options_.loop.enabled)
     loop_closer_ = std::make_unique<loop::LoopCloser>(
         options_, camera_, map_, *keyframe_db_, settings_.deterministic ? nullptr : &mapping_pause_,
@@ -92,16 +95,27 @@ SlamSystem::SlamSystem(const SystemOptions& options, const RunSettings& settings
 
 SlamSystem::~SlamSystem() { finish(); }
 
-cv::Mat SlamSystem::maskFor(uint64_t frame_id, const cv::Mat& depth, FrameStats& stats) {
+cv::Mat SlamSystem::maskFor(uint64_t frame_id, FrameStats& stats) {
   last_labels_ = cv::Mat();
   if (!semantic_) return {};
   const auto wait_start = std::chrono::steady_clock::now();
   std::shared_ptr<const semantic::Segmentation> result;
   uint64_t result_id = frame_id;
-  if (settings_.realtime)
+  if (settings_.realtime) {
     result = semantic_->latest(frame_id, &result_id);
-  else
+  } else if (settings_.mask_latency_frames > 0) {
+    const uint64_t latency = static_cast<uint64_t>(settings_.mask_latency_frames);
+    const uint64_t period = static_cast<uint64_t>(settings_.mask_period_frames);
+    if (frame_id < latency) return {};
+    result_id = (frame_id - latency) / period * period;
+    if (emulated_result_ == nullptr || emulated_result_id_ != result_id) {
+      emulated_result_ = semantic_->waitFor(result_id);
+      emulated_result_id_ = result_id;
+    }
+    result = emulated_result_;
+  } else {
     result = semantic_->waitFor(frame_id);
+  }
   stats.mask_wait_ms = millisecondsSince(wait_start);
   if (result == nullptr || result->dynamic_mask.empty()) return {};
   stats.segmentation_ms = result->seconds * 1000.0;
@@ -109,22 +123,31 @@ cv::Mat SlamSystem::maskFor(uint64_t frame_id, const cv::Mat& depth, FrameStats&
   last_labels_ = result->labels;
   cv::Mat mask = result->dynamic_mask;
   if (result_id != frame_id) {
-    // Carry the older mask forward: warp it with its frame's depth and the predicted motion.
-    auto source = std::find_if(recent_.begin(), recent_.end(), [&](const RecentFrame& f) { return f.id == result_id; });
-    if (source == recent_.end() || !source->tracked || recent_.empty() || !recent_.back().tracked) {
-      mask = cv::Mat();  // too old or untracked: better no mask than a misplaced one
-    } else {
-      const RecentFrame& previous = recent_.back();
-      SE3 T_k_w = previous.T_c_w;
-      if (recent_.size() >= 2 && recent_[recent_.size() - 2].tracked)
-        T_k_w = previous.T_c_w * recent_[recent_.size() - 2].T_c_w.inverse() * previous.T_c_w;
-      mask = dynamic::carryMaskForward(mask, source->depth, T_k_w * source->T_c_w.inverse(), camera_);
-    }
+    // Carry the older mask forward along the optical flow since its frame: it follows the people's
+    // own motion as well as the camera's. Empty when older than the flow kept.
+    mask = mask_propagator_.carry(result_id, mask);
     last_labels_ = cv::Mat();
   }
   if (mask.empty()) return {};
   const int age = std::max(0, stats.mask_age);
-  return dynamic::dilateMask(mask, options_.dynamic.mask_dilation_px + age * options_.dynamic.carried_mask_growth_px);
+  const int growth = std::min(age * options_.dynamic.carried_mask_growth_px, options_.dynamic.carried_mask_max_growth_px);
+  return dynamic::dilateMask(mask, options_.dynamic.mask_dilation_px + growth);
+}
+
+int SlamSystem::topUpOutsideMask(const cv::Mat& gray, const cv::Mat& mask, std::vector<cv::KeyPoint>& keypoints,
+                                 cv::Mat& descriptors) const {
+  const int wanted = options_.dynamic.min_features_outside_mask;
+  if (wanted <= 0) return 0;
+  int outside = 0;
+  for (const cv::KeyPoint& kp : keypoints) {
+    const int x = std::clamp(cvRound(kp.pt.x), 0, mask.cols - 1), y = std::clamp(cvRound(kp.pt.y), 0, mask.rows - 1);
+    if (mask.at<uint8_t>(y, x) == 0) ++outside;
+  }
+  if (outside >= wanted) return 0;
+  std::vector<cv::KeyPoint> extra;
+  cv::Mat extra_descriptors;
+  extractor_.extractOutside(gray, mask, wanted, extra, extra_descriptors);
+  return feature::appendDistinctKeypoints(keypoints, descriptors, extra, extra_descriptors, *pyramid_);
 }
 
 void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv::Mat& depth,
@@ -142,15 +165,22 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   std::vector<cv::KeyPoint> keypoints;
   cv::Mat descriptors;
   extractor_.extract(gray, keypoints, descriptors);
+  if (carriesMasks() && semantic_) mask_propagator_.addFrame(frame_id, gray);
+  stats.extraction_ms = millisecondsSince(start);
+
+  const cv::Mat dynamic_mask = maskFor(frame_id, stats);
+  if (!dynamic_mask.empty()) {
+    const auto topup_start = std::chrono::steady_clock::now();
+    stats.features_added_outside_mask = topUpOutsideMask(gray, dynamic_mask, keypoints, descriptors);
+    stats.extraction_ms += millisecondsSince(topup_start);
+  }
   auto features = map::buildFeatureSet(std::move(keypoints), std::move(descriptors), camera_, depth, pyramid_,
                                        options_.tracking.min_depth, options_.tracking.max_depth);
   map::Frame frame(frame_id, timestamp, image_name, std::move(features));
   frame.depth = depth;
   frame.depth_time_offset = depth_time_offset;
+  frame.dynamic_mask = dynamic_mask;
   stats.features = static_cast<int>(frame.features->size());
-  stats.extraction_ms = millisecondsSince(start);
-
-  frame.dynamic_mask = maskFor(frame_id, depth, stats);
   if (!frame.dynamic_mask.empty()) {
     const std::vector<uint8_t> in_mask = dynamic::featuresInMask(*frame.features, frame.dynamic_mask);
     const bool semantic_only = options_.dynamic.mode == "semantic";
@@ -170,6 +200,7 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   stats.tracked = outcome.tracked;
   stats.stage1_checked = outcome.stage1_checked;
   stats.stage1_removed = outcome.stage1_removed;
+  stats.free_space_removed = outcome.free_space_removed;
   stats.stage2_removed = outcome.stage2_removed;
   stats.inliers = outcome.inliers;
   stats.motion_model = outcome.used_motion_model;
@@ -192,10 +223,6 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   if (!settings_.debug_images_dir.empty()) {
     const std::filesystem::path path = settings_.debug_images_dir / image_name;
     cv::imwrite(path.string(), drawDynamicDebugView(bgr, frame.dynamic_mask, frame));
-  }
-  if (settings_.realtime && semantic_) {
-    recent_.push_back({frame_id, depth, frame.T_c_w, outcome.tracked});
-    if (recent_.size() > kRecentFrames) recent_.pop_front();
   }
   stats.total_ms = millisecondsSince(start);
   frames_.push_back(stats);
@@ -280,7 +307,7 @@ nlohmann::json closedLoopsJson(const std::vector<loop::ClosedLoop>& loops) {
 nlohmann::json SlamSystem::statistics() const {
   std::vector<double> extraction, tracking, tracking_thread, total, mask_wait, segmentation;
   nlohmann::json per_frame = nlohmann::json::array();
-  long in_mask = 0, semantic_removed = 0, stage1_checked = 0, stage1_removed = 0, stage2_removed = 0;
+  long in_mask = 0, semantic_removed = 0, stage1_checked = 0, stage1_removed = 0, stage2_removed = 0, added = 0, free_space = 0;
   size_t fresh_masks = 0, carried_masks = 0, no_mask = 0;
   for (const FrameStats& f : frames_) {
     extraction.push_back(f.extraction_ms);
@@ -295,12 +322,16 @@ nlohmann::json SlamSystem::statistics() const {
     stage1_checked += f.stage1_checked;
     stage1_removed += f.stage1_removed;
     stage2_removed += f.stage2_removed;
+    added += f.features_added_outside_mask;
+    free_space += f.free_space_removed;
     if (f.mask_age == 0) ++fresh_masks;
     else if (f.mask_age > 0) ++carried_masks;
     else ++no_mask;
     per_frame.push_back({{"features", f.features}, {"in_mask", f.in_mask}, {"semantic_removed", f.semantic_removed},
                          {"stage1_checked", f.stage1_checked}, {"stage1_removed", f.stage1_removed},
                          {"stage2_removed", f.stage2_removed}, {"mask_age", f.mask_age},
+                         {"features_added_outside_mask", f.features_added_outside_mask},
+                         {"free_space_removed", f.free_space_removed},
                          {"fresh_mask", f.mask_age == 0}, {"segmentation_ms", f.segmentation_ms},
                          {"tracking_ms", f.extraction_ms + f.tracking_ms}, {"tracked", f.tracked},
                          {"keyframe", f.keyframe}, {"inliers", f.inliers}, {"motion_model", f.motion_model}});
@@ -322,9 +353,11 @@ nlohmann::json SlamSystem::statistics() const {
   }
   j["dynamic"] = {{"mode", options_.dynamic.mode},
                   {"features_in_mask", in_mask},
+                  {"features_added_outside_mask", added},
                   {"removed_by_mask", semantic_removed},
                   {"stage1_checked", stage1_checked},
                   {"removed_stage1", stage1_removed},
+                  {"removed_stage1_free_space", free_space},
                   {"removed_stage2", stage2_removed},
                   {"frames_with_fresh_mask", fresh_masks},
                   {"frames_with_carried_mask", carried_masks},

@@ -19,6 +19,7 @@
 #include "core/camera.hpp"
 #include "core/options.hpp"
 #include "core/trajectory.hpp"
+#include "dynamic/mask_propagation.hpp"
 #include "feature/orb_extractor.hpp"
 #include "map/map.hpp"
 #include "loop/keyframe_database.hpp"
@@ -29,6 +30,7 @@
 
 namespace desslam::semantic {
 class SemanticThread;
+struct Segmentation;
 }
 namespace desslam::dense {
 class DenseMappingThread;
@@ -40,6 +42,11 @@ struct RunSettings {
   bool deterministic = false;
   bool realtime = false;            // never wait for segmentation (masks carried forward)
   std::filesystem::path debug_images_dir;  // empty: none written
+  // Offline only (0 = off): frame k gets the mask of the newest frame s <= k - mask_latency_frames
+  // with s a multiple of mask_period_frames, carried forward as in real time. Real time's stale
+  // masks, reproducible with `deterministic` (real time itself depends on the CPU's load).
+  int mask_latency_frames = 0;
+  int mask_period_frames = 1;
 };
 
 // Per-frame record for the report, milliseconds and counts.
@@ -50,7 +57,9 @@ struct FrameStats {
   double total_ms = 0;       // the whole processFrame call
   double segmentation_ms = -1;  // network time of the mask used (-1: none)
   int mask_age = -1;         // frames between the mask's frame and this one (0 = fresh, -1 = no mask)
+  int features_added_outside_mask = 0;  // extra features on the background (a mask covered most)
   int features = 0, in_mask = 0, semantic_removed = 0, stage1_checked = 0, stage1_removed = 0, stage2_removed = 0;
+  int free_space_removed = 0;  // of stage1_removed: the free-space test outside the mask
   bool tracked = false;
   bool keyframe = false;
   int inliers = 0;            // map-point inliers after local-map tracking
@@ -86,7 +95,11 @@ class SlamSystem {
 
  private:
   // The dilated mask of dynamic classes for this frame, and its provenance.
-  cv::Mat maskFor(uint64_t frame_id, const cv::Mat& depth, FrameStats& stats);
+  cv::Mat maskFor(uint64_t frame_id, FrameStats& stats);
+  // Extracts more features outside `mask` when fewer than dynamic.min_features_outside_mask lie
+  // there, appending them; returns how many were added.
+  int topUpOutsideMask(const cv::Mat& gray, const cv::Mat& mask, std::vector<cv::KeyPoint>& keypoints,
+                       cv::Mat& descriptors) const;
   void pushDenseKeyframe(const map::Keyframe* kf, const map::Frame& frame, const cv::Mat& bgr,
                          const cv::Mat& labels) const;
 
@@ -108,15 +121,14 @@ class SlamSystem {
   std::unique_ptr<semantic::SemanticThread> semantic_;           // null when no masks are used
   std::unique_ptr<dense::DenseMappingThread> dense_;             // null when dense.enabled is false
 
-  // Recent frames (tracking thread only), to carry a late mask forward; real-time mode only.
-  struct RecentFrame {
-    uint64_t id;
-    cv::Mat depth;
-    SE3 T_c_w;
-    bool tracked;
-  };
-  std::deque<RecentFrame> recent_;
+  // Carries a late mask forward along optical flow (tracking thread only; real time and emulated
+  // latency).
+  dynamic::MaskPropagator mask_propagator_;
   cv::Mat last_labels_;  // labels of the mask used for the current frame (dense semantic colour)
+  // Emulated latency: the result handed to the frames after its own (offline waitFor erases it).
+  std::shared_ptr<const semantic::Segmentation> emulated_result_;
+  uint64_t emulated_result_id_ = 0;
+  bool carriesMasks() const { return settings_.realtime || settings_.mask_latency_frames > 0; }
 
   std::vector<FrameStats> frames_;
   uint64_t next_frame_id_ = 0;

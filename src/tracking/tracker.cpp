@@ -468,23 +468,42 @@ void Tracker::applyStage1(map::Frame& frame, TrackOutcome& outcome) {
   const map::Frame& reference = stage1Reference(frame);
   input.previous = reference.features.get();
   input.T_k_km1 = frame.T_c_w * reference.T_c_w.inverse();
-  if (input.mask == nullptr && !geometric_only) {
-    // No mask for this frame: nothing is pending, nothing to check.
-    for (auto& status : frame.status)
-      if (status == map::FeatureStatus::kPendingStage1) status = map::FeatureStatus::kStatic;
-    return;
-  }
-  const dynamic::Stage1Result result = dynamic::runStage1(input, camera_, options_.dynamic);
-  outcome.stage1_checked = result.in_mask_count;
-  for (size_t i = 0; i < frame.status.size(); ++i) {
-    if (frame.status[i] != map::FeatureStatus::kPendingStage1 && frame.status[i] != map::FeatureStatus::kStatic) continue;
-    if (result.dynamic[i]) {
-      frame.status[i] = map::FeatureStatus::kDynamicStage1;
-      frame.matches[i] = {};
-      ++outcome.stage1_removed;
-    } else {
-      frame.status[i] = map::FeatureStatus::kStatic;
+  // Features outside the mask (all of them when this frame has none): the free-space test.
+  std::vector<uint8_t> outside(frame.status.size(), 0);
+  for (size_t i = 0; i < frame.status.size(); ++i)
+    outside[i] = frame.status[i] == map::FeatureStatus::kStatic ? 1 : 0;
+  if (input.mask != nullptr || geometric_only) {
+    const dynamic::Stage1Result result = dynamic::runStage1(input, camera_, options_.dynamic);
+    outcome.stage1_checked = result.in_mask_count;
+    for (size_t i = 0; i < frame.status.size(); ++i) {
+      if (frame.status[i] != map::FeatureStatus::kPendingStage1 && frame.status[i] != map::FeatureStatus::kStatic)
+        continue;
+      if (result.dynamic[i]) {
+        frame.status[i] = map::FeatureStatus::kDynamicStage1;
+        frame.matches[i] = {};
+        ++outcome.stage1_removed;
+      } else {
+        frame.status[i] = map::FeatureStatus::kStatic;
+      }
     }
+  } else {
+    for (auto& status : frame.status)  // no mask for this frame: nothing is pending
+      if (status == map::FeatureStatus::kPendingStage1) status = map::FeatureStatus::kStatic;
+  }
+  if (geometric_only || !options_.dynamic.free_space_outside_mask || reference.depth.empty() || reference.id == frame.id)
+    return;
+  dynamic::FreeSpaceInput free_space;
+  free_space.current = frame.features.get();
+  free_space.reference_depth = &reference.depth;
+  free_space.T_ref_k = input.T_k_km1.inverse();
+  free_space.test = &outside;
+  const std::vector<uint8_t> moved = dynamic::freeSpaceViolations(free_space, camera_, options_.dynamic);
+  for (size_t i = 0; i < moved.size(); ++i) {
+    if (!moved[i]) continue;
+    frame.status[i] = map::FeatureStatus::kDynamicStage1;
+    frame.matches[i] = {};
+    ++outcome.stage1_removed;
+    ++outcome.free_space_removed;
   }
 }
 

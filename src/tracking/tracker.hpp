@@ -34,7 +34,8 @@ struct FrameRecord {
 struct TrackOutcome {
   bool tracked = false;
   int stage1_checked = 0;   // features examined by stage 1 (in the mask, or all in geometric mode)
-  int stage1_removed = 0;   // found dynamic by stage 1
+  int stage1_removed = 0;   // found dynamic by stage 1 (in the mask, plus the free-space test outside it)
+  int free_space_removed = 0;  // of those, by the free-space test outside the mask
   int stage2_removed = 0;   // found dynamic by stage 2 (their map points culled)
   map::Keyframe* new_keyframe = nullptr;  // to hand to local mapping
   int inliers = 0;                        // map-point inliers after local-map tracking
