@@ -122,14 +122,14 @@ struct DynamicOptions {
   // ~2.5 px here) and a walking person is motion-blurred: with 5 px the matched features along
   // silhouettes dragged the Bonn crowd pose with the walkers (ATE 0.49 m), with 15 px 0.026 m.
   int mask_dilation_px = 15;
-  // Real time: a mask carried forward from an older frame follows the camera but not the people
-  // (a walker crosses ~10 px per frame at 2-3 m), so it grows by this much more per frame of age.
-  // Bonn crowd --realtime: 0 px -> ATE 0.047-0.129 m, 8 px -> 0.063 / 0.063, 12 px -> 0.019 /
-  // 0.064 / 0.030 (the network segments ~1 frame in 4 there).
+  // Real time: a mask carried forward from an older frame along optical flow (MaskPropagator)
+  // follows the people only approximately (coarse flow, 257 px labels), so it grows by this much
+  // more per frame of age, ...
   int carried_mask_growth_px = 12;
   // ... up to this much in all: under load the newest mask can be 10-20 frames old, and a mask
-  // grown over the whole image leaves tracking nothing outside it (the free-space test catches
-  // the parts of walkers that left an old mask).
+  // grown over the whole image leaves tracking nothing outside it in a crowd (the free-space test
+  // catches the parts of walkers that left an old mask). Bonn crowd with emulated latencies
+  // (3-10 frames, deterministic): cap 36 px -> ATE 0.030 m at 5 frames, cap 24 px -> 0.084 m.
   int carried_mask_max_growth_px = 36;
   // Stage 1 correspondence: a masked feature of frame k is matched to frame k-1's features by
   // descriptor within this window (pixels at level 0, scaled by the keypoint's level) around
@@ -156,7 +156,9 @@ struct DynamicOptions {
   // this many more extracted outside it (duplicates skipped). 0 = off.
   int min_features_outside_mask = 500;
   // Full mode: features outside the mask go through the correspondence-free free-space test
-  // (dynamic::freeSpaceViolations): the network misses legs and arms.
+  // (dynamic::freeSpaceViolations) against the stage-1 reference frame and the reference
+  // keyframe: the network misses legs and arms, and a late (real-time) mask misses whoever
+  // entered the view since.
   bool free_space_outside_mask = true;
 
   static constexpr const char* kSection = "dynamic";
@@ -189,7 +191,7 @@ struct SemanticOptions {
   int threads = 1;
   // Real-time mode (--realtime): the network starts at most this often (0 = as often as it can).
   // On 2 cores an unthrottled network takes a whole core and starves mapping; masks between are
-  // carried forward with depth and camera motion.
+  // carried forward along optical flow.
   double realtime_max_rate_hz = 10.0;
 
   static constexpr const char* kSection = "semantic";

@@ -204,7 +204,8 @@ std::vector<uint8_t> freeSpaceViolations(const FreeSpaceInput& input, const Pinh
   if (input.test != nullptr && input.test->size() != n)
     throw InputError("freeSpaceViolations: test has " + std::to_string(input.test->size()) + " entries for " +
                      std::to_string(n) + " features");
-  constexpr int kWindowRadius = 2;
+  if (input.depth_scale < 1) throw InputError("freeSpaceViolations: depth_scale must be at least 1");
+  const int window_radius = std::max(1, 2 / input.depth_scale);  // ~5x5 pixels of the full image
   std::vector<uint8_t> dynamic(n, 0);
   for (size_t i = 0; i < n; ++i) {
     if ((input.test != nullptr && !(*input.test)[i]) || !current.hasDepth(i)) continue;
@@ -214,11 +215,11 @@ std::vector<uint8_t> freeSpaceViolations(const FreeSpaceInput& input, const Pinh
     const Vec2 uv = camera.project(p_ref);
     if (!camera.inImage(uv)) continue;
     const Vec2 raw = camera.distort(uv);
-    const int x = roundPixel(raw.x()), y = roundPixel(raw.y());
+    const int x = roundPixel(raw.x() / input.depth_scale), y = roundPixel(raw.y() / input.depth_scale);
     float nearest = 0;
-    for (int yy = std::max(0, y - kWindowRadius); yy <= std::min(depth.rows - 1, y + kWindowRadius); ++yy) {
+    for (int yy = std::max(0, y - window_radius); yy <= std::min(depth.rows - 1, y + window_radius); ++yy) {
       const float* row = depth.ptr<float>(yy);
-      for (int xx = std::max(0, x - kWindowRadius); xx <= std::min(depth.cols - 1, x + kWindowRadius); ++xx)
+      for (int xx = std::max(0, x - window_radius); xx <= std::min(depth.cols - 1, x + window_radius); ++xx)
         if (row[xx] > 0 && (nearest <= 0 || row[xx] < nearest)) nearest = row[xx];
     }
     if (nearest <= 0 || nearest <= d_ref) continue;

