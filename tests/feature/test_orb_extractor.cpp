@@ -225,6 +225,197 @@ TEST(OrbExtractor, PyramidAndQuotas) {
   EXPECT_NEAR(double(quota[0]) / quota[1], 1.44, 0.02);
 }
 
+// ---- extractOutside / appendDistinctKeypoints -------------------------------------------------
+
+// A person-sized block covering the middle 40 % of the width and most of the height: a mask
+// "filling much of the view", as when extractOutside is called in tracking.
+cv::Mat centralExclusionMask(cv::Size size) {
+  cv::Mat exclude(size, CV_8UC1, cv::Scalar(0));
+  exclude(cv::Rect(size.width * 3 / 10, size.height / 10, size.width * 4 / 10, size.height * 9 / 10)).setTo(255);
+  return exclude;
+}
+
+TEST(OrbExtractor, ExtractOutsideKeepsEveryKeypointOutTheMask) {
+  const cv::Mat image = syntheticTexturedImage();
+  const cv::Mat exclude = centralExclusionMask(image.size());
+  const OrbExtractor extractor(OrbOptions{});
+  for (int wanted : {300, 600}) {
+    SCOPED_TRACE(wanted);
+    std::vector<cv::KeyPoint> keypoints;
+    cv::Mat descriptors;
+    extractor.extractOutside(image, exclude, wanted, keypoints, descriptors);
+    expectWellFormed(image, keypoints, descriptors, extractor.pyramid());
+    // The budget is spent outside the mask, not lost to it: close to the count asked for.
+    EXPECT_NEAR(static_cast<double>(keypoints.size()), wanted, 0.1 * wanted);
+    std::set<int> octaves;
+    for (const cv::KeyPoint& kp : keypoints) {
+      const int x = std::clamp(static_cast<int>(std::lround(kp.pt.x)), 0, image.cols - 1);
+      const int y = std::clamp(static_cast<int>(std::lround(kp.pt.y)), 0, image.rows - 1);
+      EXPECT_EQ(exclude.at<uint8_t>(y, x), 0) << "keypoint at " << kp.pt << " octave " << kp.octave
+                                              << " lies in the excluded region";
+      octaves.insert(kp.octave);
+    }
+    EXPECT_GE(octaves.size(), 5u) << "extractOutside should spread over the pyramid as extract() does";
+    // Both sides of the block get keypoints (the spread over the image holds outside the mask).
+    const auto left = std::count_if(keypoints.begin(), keypoints.end(),
+                                    [&](const cv::KeyPoint& kp) { return kp.pt.x < image.cols * 0.3; });
+    const auto right = std::count_if(keypoints.begin(), keypoints.end(),
+                                     [&](const cv::KeyPoint& kp) { return kp.pt.x >= image.cols * 0.7; });
+    EXPECT_GT(left, static_cast<long>(wanted) / 5);
+    EXPECT_GT(right, static_cast<long>(wanted) / 5);
+  }
+}
+
+TEST(OrbExtractor, ExtractOutsideWithAnEmptyMaskMatchesExtract) {
+  // Nothing excluded and the full budget: the same keypoints as extract() (one shared path).
+  const cv::Mat image = syntheticTexturedImage();
+  const OrbExtractor extractor(OrbOptions{});
+  std::vector<cv::KeyPoint> all, outside;
+  cv::Mat all_descriptors, outside_descriptors;
+  extractor.extract(image, all, all_descriptors);
+  extractor.extractOutside(image, cv::Mat::zeros(image.size(), CV_8UC1), extractor.options().num_features, outside,
+                           outside_descriptors);
+  ASSERT_EQ(outside.size(), all.size());
+  for (size_t i = 0; i < all.size(); ++i) {
+    ASSERT_EQ(outside[i].pt, all[i].pt) << i;
+    ASSERT_EQ(outside[i].octave, all[i].octave) << i;
+  }
+  EXPECT_EQ(cv::norm(outside_descriptors, all_descriptors, cv::NORM_HAMMING), 0.0);
+}
+
+TEST(OrbExtractor, ExtractOutsideRejectsAWrongMask) {
+  const cv::Mat image = syntheticTexturedImage();
+  const OrbExtractor extractor(OrbOptions{});
+  std::vector<cv::KeyPoint> keypoints;
+  cv::Mat descriptors;
+  EXPECT_THROW(extractor.extractOutside(image, cv::Mat(), 100, keypoints, descriptors), InputError);
+  EXPECT_THROW(extractor.extractOutside(image, cv::Mat::zeros(240, 320, CV_8UC1), 100, keypoints, descriptors),
+               InputError);
+  EXPECT_THROW(extractor.extractOutside(image, cv::Mat::zeros(image.size(), CV_32FC1), 100, keypoints, descriptors),
+               InputError);
+  EXPECT_THROW(extractor.extractOutside(image, cv::Mat::zeros(image.size(), CV_8UC3), 100, keypoints, descriptors),
+               InputError);
+}
+
+// Descriptor rows that differ from each other (row i: bytes i*32 .. i*32+31, mod 256).
+cv::Mat distinctDescriptors(int rows, int first_value) {
+  cv::Mat d(rows, 32, CV_8UC1);
+  for (int r = 0; r < rows; ++r)
+    for (int b = 0; b < 32; ++b) d.at<uint8_t>(r, b) = static_cast<uint8_t>((first_value + r * 32 + b) % 256);
+  return d;
+}
+
+cv::KeyPoint keypointAt(float x, float y, int octave) {
+  return cv::KeyPoint(cv::Point2f(x, y), 31.f, 0.f, 1.f, octave);
+}
+
+bool sameRow(const cv::Mat& a, int row_a, const cv::Mat& b, int row_b) {
+  return cv::norm(a.row(row_a), b.row(row_b), cv::NORM_HAMMING) == 0.0;
+}
+
+TEST(AppendDistinctKeypoints, SkipsCoincidingKeypointsAndCopiesTheRightRows) {
+  const ScalePyramid pyramid = makeScalePyramid(8, 1.2);
+  std::vector<cv::KeyPoint> keypoints = {keypointAt(100, 100, 0), keypointAt(200, 200, 3)};
+  cv::Mat descriptors = distinctDescriptors(2, 0);
+  const cv::Mat existing_descriptors = descriptors.clone();
+
+  // Tolerance: 1 pixel of the keypoint's level, 1.2^3 = 1.728 level-0 pixels at octave 3.
+  const std::vector<cv::KeyPoint> extra = {
+      keypointAt(100.8f, 99.5f, 0),  // 0: within 1 px of the first, same octave: duplicate
+      keypointAt(100, 100, 1),       // 1: same spot, other octave: distinct
+      keypointAt(101.5f, 100, 0),    // 2: 1.5 px away at octave 0: distinct
+      keypointAt(201.5f, 199, 3),    // 3: within 1.728 px at octave 3: duplicate
+      keypointAt(202, 200, 3),       // 4: 2 px away at octave 3: distinct
+      keypointAt(400, 50, 2),        // 5: nowhere near: distinct
+  };
+  const cv::Mat extra_descriptors = distinctDescriptors(static_cast<int>(extra.size()), 100);
+  const std::vector<int> expected = {1, 2, 4, 5};
+
+  const int appended = appendDistinctKeypoints(keypoints, descriptors, extra, extra_descriptors, pyramid);
+  EXPECT_EQ(appended, static_cast<int>(expected.size()));
+  ASSERT_EQ(keypoints.size(), 2 + expected.size());
+  ASSERT_EQ(descriptors.rows, static_cast<int>(keypoints.size()));
+  ASSERT_EQ(descriptors.type(), CV_8UC1);
+  // The existing keypoints and rows stay first and unchanged.
+  EXPECT_EQ(keypoints[0].pt, cv::Point2f(100, 100));
+  EXPECT_EQ(keypoints[1].pt, cv::Point2f(200, 200));
+  EXPECT_TRUE(sameRow(descriptors, 0, existing_descriptors, 0));
+  EXPECT_TRUE(sameRow(descriptors, 1, existing_descriptors, 1));
+  // Then the distinct extras, in order, each with its own descriptor row.
+  for (size_t k = 0; k < expected.size(); ++k) {
+    const int row = static_cast<int>(2 + k);
+    EXPECT_EQ(keypoints[row].pt, extra[expected[k]].pt) << "appended " << k;
+    EXPECT_EQ(keypoints[row].octave, extra[expected[k]].octave) << "appended " << k;
+    EXPECT_TRUE(sameRow(descriptors, row, extra_descriptors, expected[k])) << "appended " << k;
+  }
+}
+
+TEST(AppendDistinctKeypoints, AppendsEverythingToAnEmptySetAndNothingWhenNoExtra) {
+  const ScalePyramid pyramid = makeScalePyramid(8, 1.2);
+  const std::vector<cv::KeyPoint> extra = {keypointAt(10, 10, 0), keypointAt(10.5f, 10, 0), keypointAt(300, 20, 4)};
+  const cv::Mat extra_descriptors = distinctDescriptors(3, 7);
+  std::vector<cv::KeyPoint> keypoints;
+  cv::Mat descriptors;
+  EXPECT_EQ(appendDistinctKeypoints(keypoints, descriptors, extra, extra_descriptors, pyramid), 3);
+  ASSERT_EQ(keypoints.size(), 3u);
+  ASSERT_EQ(descriptors.rows, 3);
+  for (int r = 0; r < 3; ++r) {
+    EXPECT_EQ(keypoints[r].pt, extra[r].pt);
+    EXPECT_TRUE(sameRow(descriptors, r, extra_descriptors, r)) << r;
+  }
+
+  const cv::Mat before = descriptors.clone();
+  EXPECT_EQ(appendDistinctKeypoints(keypoints, descriptors, {}, cv::Mat(0, 32, CV_8UC1), pyramid), 0);
+  EXPECT_EQ(keypoints.size(), 3u);
+  EXPECT_EQ(cv::norm(descriptors, before, cv::NORM_HAMMING), 0.0);
+  // Everything again: each one now coincides with itself.
+  EXPECT_EQ(appendDistinctKeypoints(keypoints, descriptors, extra, extra_descriptors, pyramid), 0);
+  EXPECT_EQ(descriptors.rows, 3);
+}
+
+TEST(AppendDistinctKeypoints, ExtraFromExtractOutsideAddsOnlyNewCorners) {
+  // The tracking use: the normal extraction, topped up outside a big mask. The same detector
+  // finds some of the same corners again; they must not be doubled.
+  const cv::Mat image = syntheticTexturedImage();
+  const OrbExtractor extractor(OrbOptions{});
+  std::vector<cv::KeyPoint> keypoints, extra;
+  cv::Mat descriptors, extra_descriptors;
+  extractor.extract(image, keypoints, descriptors);
+  extractor.extractOutside(image, centralExclusionMask(image.size()), 500, extra, extra_descriptors);
+  const std::vector<cv::KeyPoint> original = keypoints;
+  const cv::Mat original_descriptors = descriptors.clone();
+
+  const auto coincides = [&](const cv::KeyPoint& e) {
+    const double tolerance = extractor.pyramid().scale[e.octave];
+    return std::any_of(original.begin(), original.end(), [&](const cv::KeyPoint& kp) {
+      return kp.octave == e.octave && std::abs(kp.pt.x - e.pt.x) <= tolerance &&
+             std::abs(kp.pt.y - e.pt.y) <= tolerance;
+    });
+  };
+  int expected = 0;
+  for (const cv::KeyPoint& e : extra) expected += coincides(e) ? 0 : 1;
+  ASSERT_GT(expected, 0);
+  ASSERT_LT(expected, static_cast<int>(extra.size())) << "the test needs some corners found by both extractions";
+
+  const int appended = appendDistinctKeypoints(keypoints, descriptors, extra, extra_descriptors, extractor.pyramid());
+  EXPECT_EQ(appended, expected);
+  ASSERT_EQ(keypoints.size(), original.size() + static_cast<size_t>(appended));
+  ASSERT_EQ(descriptors.rows, static_cast<int>(keypoints.size()));
+  EXPECT_EQ(cv::norm(descriptors.rowRange(0, static_cast<int>(original.size())), original_descriptors,
+                     cv::NORM_HAMMING),
+            0.0);
+  // Each appended keypoint is a non-coinciding extra, in order, carrying that extra's row.
+  size_t next = original.size();
+  for (size_t i = 0; i < extra.size(); ++i) {
+    if (coincides(extra[i])) continue;
+    ASSERT_LT(next, keypoints.size());
+    EXPECT_EQ(keypoints[next].pt, extra[i].pt);
+    EXPECT_EQ(keypoints[next].octave, extra[i].octave);
+    EXPECT_TRUE(sameRow(descriptors, static_cast<int>(next), extra_descriptors, static_cast<int>(i))) << i;
+    ++next;
+  }
+}
+
 TEST(OrbExtractor, RejectsBadInputAndOptions) {
   OrbOptions bad;
   bad.num_levels = 0;

@@ -311,6 +311,30 @@ TEST_F(DesslamCli, MalformedSkipFramesIsNamed) {
   EXPECT_CONTAINS(past.err, "3 frames");
 }
 
+TEST_F(DesslamCli, EmulatedMaskLatencyIsRefusedWithRealtime) {
+  // Real time has its own mask latency; emulating one on top of it would mean neither.
+  writeSequence(3);
+  writeConfig();
+  const CommandResult r = run(sequence(), config(), out(), "--realtime --emulate-mask-latency 3");
+  expectCleanFailure(r);
+  EXPECT_CONTAINS(r.err, "latency");
+  EXPECT_CONTAINS(r.err, "--realtime");
+  EXPECT_FALSE(fs::exists(out() / "report.json"));
+}
+
+TEST_F(DesslamCli, EmulatedMaskLatencyOfflineRunsAndIsReported) {
+  // The counterpart of the refusal above: offline, the same option is accepted and recorded.
+  writeSequence(10);
+  writeConfig();
+  const CommandResult r =
+      run(sequence(), config(), out(), "--deterministic -q --emulate-mask-latency 3 --emulate-mask-period 2");
+  ASSERT_EQ(r.exit_code, 0) << "stderr:\n" << r.err;
+  nlohmann::json report;
+  ASSERT_NO_THROW(report = nlohmann::json::parse(test::readText(out() / "report.json")));
+  EXPECT_EQ(report["settings"]["emulated_mask_latency"]["frames"].get<int>(), 3);
+  EXPECT_EQ(report["settings"]["emulated_mask_latency"]["period"].get<int>(), 2);
+}
+
 TEST_F(DesslamCli, MissingConfigFileIsNamed) {
   writeSequence(3);
   const CommandResult r = run(sequence(), dir_ / "no_such_config.yaml", out());
