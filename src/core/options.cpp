@@ -44,6 +44,7 @@ void TrackingOptions::validate() const {
   requireInRange(s, "max_depth", max_depth, min_depth, 100.0);
   requireInRange(s, "close_depth", close_depth, min_depth, max_depth);
   requireInRange(s, "min_inliers", min_inliers, 4, 1000);
+  requireInRange(s, "max_speed_m_s", max_speed_m_s, 0.01, 1000.0);
   requireInRange(s, "max_frames_between_keyframes", max_frames_between_keyframes, 1, 100000);
   requireInRange(s, "min_frames_between_keyframes", min_frames_between_keyframes, 0,
                  max_frames_between_keyframes);
@@ -73,6 +74,7 @@ void DynamicOptions::validate() const {
   requireInRange(s, "mask_dilation_px", mask_dilation_px, 0, 100);
   requireInRange(s, "carried_mask_growth_px", carried_mask_growth_px, 0, 100);
   requireInRange(s, "carried_mask_max_growth_px", carried_mask_max_growth_px, 0, 300);
+  requireInRange(s, "late_mask_mapping_margin_px", late_mask_mapping_margin_px, 0, 300);
   requireInRange(s, "stage1_search_radius_px", stage1_search_radius_px, 1.0, 200.0);
   requireInRange(s, "stage1_max_descriptor_distance", stage1_max_descriptor_distance, 0, 256);
   requireInRange(s, "stage1_match_ratio", stage1_match_ratio, 0.1, 1.0);

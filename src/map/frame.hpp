@@ -31,6 +31,9 @@ struct Frame {
   std::shared_ptr<const FeatureSet> features;
   cv::Mat depth;                      // CV_32F metres (shared with the caller, not copied)
   cv::Mat dynamic_mask;               // CV_8U dilated semantic mask (255 = possibly moving); may be empty
+  // A keyframe made from this frame maps nothing within this many pixels of dynamic_mask (a late
+  // mask: the people may have moved out of it). Tracking still uses the features there. 0 = none.
+  int mapping_margin_px = 0;
   std::vector<FeatureStatus> status;  // per feature
   std::vector<FeatureMatch> matches;  // per feature
   SE3 T_c_w;

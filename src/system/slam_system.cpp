@@ -180,6 +180,7 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   frame.depth = depth;
   frame.depth_time_offset = depth_time_offset;
   frame.dynamic_mask = dynamic_mask;
+  if (stats.mask_age > 0) frame.mapping_margin_px = options_.dynamic.late_mask_mapping_margin_px;
   stats.features = static_cast<int>(frame.features->size());
   if (!frame.dynamic_mask.empty()) {
     const std::vector<uint8_t> in_mask = dynamic::featuresInMask(*frame.features, frame.dynamic_mask);
@@ -347,6 +348,7 @@ nlohmann::json SlamSystem::statistics() const {
                    {"frames_lost", tracker_.lostFrames()},
                    {"tracking_losses", tracker_.losses()},
                    {"relocalisations", tracker_.relocalisations()},
+                   {"implausible_jumps_refused", tracker_.implausibleJumps()},
                    {"keyframes", map_.keyframeCount()},
                    {"keyframes_created", map_.allKeyframes().size()},
                    {"map_points", map_.pointCount()}};

@@ -7,6 +7,7 @@
 #include <shared_mutex>
 
 #include "dynamic/depth_checks.hpp"
+#include "dynamic/mask_utils.hpp"
 #include "tracking/frame_pose.hpp"
 
 namespace desslam::tracking {
@@ -22,6 +23,7 @@ constexpr double kLocalMapRadius = 3.0;    // RGB-D local-map window factor
 constexpr int kCloseTrackedNeeded = 100;   // "need close points" keyframe criterion
 constexpr int kCloseUntrackedEnough = 70;
 constexpr int kMinNewDepthPoints = 100;    // a keyframe gets at least this many depth points
+constexpr int kMinKeyframeObservations = 100;  // mappable features a keyframe needs (late masks)
 constexpr size_t kRecoveryKeyframes = 8;   // when lost, the newest keyframes tried before giving up
 constexpr double kStillTranslation = 0.005;        // metres per frame below which motion is negligible
 constexpr double kStillRotation = 0.5 * M_PI / 180;  // radians per frame
@@ -108,6 +110,10 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     ok = inliers >= kMinLocalMapInliersAfterStage2;
   }
   outcome.inliers = inliers;
+  if (ok && !recovering && implausibleJump(frame)) {
+    ok = false;
+    ++implausible_jumps_;
+  }
 
   if (!ok) {
     if (state_ == TrackingState::kOk) ++losses_;
@@ -246,6 +252,13 @@ bool Tracker::trackWithMotionModel(map::Frame& frame) {
     }
   }
   return inliers >= kMinMapInliersStep;
+}
+
+bool Tracker::implausibleJump(const map::Frame& frame) const {
+  // A non-positive interval (equal timestamps) is taken as one frame at 30 Hz.
+  const double seconds = std::max(frame.timestamp - last_frame_.timestamp, 1.0 / 30.0);
+  const double moved = (frame.T_c_w.inverse().translation() - last_frame_.T_c_w.inverse().translation()).norm();
+  return moved > options_.tracking.max_speed_m_s * seconds;
 }
 
 SE3 Tracker::motionOver(double seconds) const {
@@ -565,25 +578,41 @@ map::Keyframe* Tracker::createKeyframe(map::Frame& frame) {
   map::Keyframe* kf = nullptr;
   {
     std::unique_lock lock(map_.mutex());
-    kf = map_.createKeyframe(frame.id, frame.timestamp, frame.image_name, frame.features, frame.status,
+    std::vector<map::FeatureStatus> status = frame.status;
+    if (frame.mapping_margin_px > 0 && !frame.dynamic_mask.empty()) {
+      const std::vector<uint8_t> excluded =
+          dynamic::featuresInMask(*frame.features, dynamic::dilateMask(frame.dynamic_mask, frame.mapping_margin_px));
+      int mappable = 0;
+      for (size_t i = 0; i < status.size(); ++i) {
+        if (excluded[i] && status[i] == map::FeatureStatus::kStatic) status[i] = map::FeatureStatus::kDynamicMask;
+        if (status[i] == map::FeatureStatus::kStatic && (frame.matches[i].point != nullptr || frame.features->hasDepth(i)))
+          ++mappable;
+      }
+      // A keyframe with little left to observe is barely constrained: bundle adjustment can move it
+      // anywhere (Bonn crowd, emulated late masks: one ended 2 m away). Better none.
+      if (mappable < kMinKeyframeObservations) return nullptr;
+    }
+    kf = map_.createKeyframe(frame.id, frame.timestamp, frame.image_name, frame.features, status,
                              halfDepthFor(frame), frame.T_c_w);
     for (size_t i = 0; i < frame.matches.size(); ++i) {
       map::MapPoint* p = frame.matches[i].point;
+      if (status[i] != map::FeatureStatus::kStatic) continue;
       if (p != nullptr && !p->bad && !frame.matches[i].outlier && p->observations.count(kf->id) == 0)
         map::addObservation(p, kf, static_cast<int>(i));
     }
-    createDepthPoints(frame, kf);
+    createDepthPoints(frame, status, kf);
   }
   reference_keyframe_ = last_keyframe_ = kf;
   last_keyframe_frame_id_ = frame.id;
   return kf;
 }
 
-void Tracker::createDepthPoints(map::Frame& frame, map::Keyframe* kf) {
+void Tracker::createDepthPoints(map::Frame& frame, const std::vector<map::FeatureStatus>& status, map::Keyframe* kf) {
   const map::FeatureSet& features = *frame.features;
   std::vector<std::pair<float, int>> by_depth;
   for (size_t i = 0; i < features.size(); ++i)
-    if (frame.usable(i) && features.hasDepth(i) && kf->points[i] == nullptr) by_depth.emplace_back(features.depth[i], i);
+    if (status[i] == map::FeatureStatus::kStatic && features.hasDepth(i) && kf->points[i] == nullptr)
+      by_depth.emplace_back(features.depth[i], i);
   std::sort(by_depth.begin(), by_depth.end());
   const SE3 T_w_c = frame.T_c_w.inverse();
   int created = 0;

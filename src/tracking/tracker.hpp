@@ -60,6 +60,7 @@ class Tracker {
   int lostFrames() const { return lost_frames_; }
   int losses() const { return losses_; }                    // times tracking went from ok to lost
   int relocalisations() const { return relocalisations_; }  // times the relocaliser recovered it
+  int implausibleJumps() const { return implausible_jumps_; }  // poses refused by tracking.max_speed_m_s
 
  private:
   bool initialize(map::Frame& frame, TrackOutcome& outcome);
@@ -67,6 +68,8 @@ class Tracker {
   bool trackReferenceKeyframe(map::Frame& frame);
   // The camera motion T_later_earlier over `seconds` at the current velocity (identity without one).
   SE3 motionOver(double seconds) const;
+  // Whether frame.T_c_w implies a camera faster than tracking.max_speed_m_s since the last frame.
+  bool implausibleJump(const map::Frame& frame) const;
   // Descriptor matching against one keyframe's map points, then pose-only optimisation.
   bool trackKeyframe(map::Frame& frame, map::Keyframe* keyframe);
   // When lost: the newest keyframes, one after another (relocalisation light).
@@ -85,9 +88,10 @@ class Tracker {
   int optimizeFramePose(map::Frame& frame);
   void updateLocalMap(const map::Frame& frame);
   bool needKeyframe(const map::Frame& frame, int inliers, bool mapping_idle, int mapping_backlog) const;
+  // Null when a late mask leaves the frame too little to map (see kMinKeyframeObservations).
   map::Keyframe* createKeyframe(map::Frame& frame);
   cv::Mat halfDepthFor(const map::Frame& frame) const;
-  void createDepthPoints(map::Frame& frame, map::Keyframe* kf);  // exclusive lock held
+  void createDepthPoints(map::Frame& frame, const std::vector<map::FeatureStatus>& status, map::Keyframe* kf);  // exclusive lock held
 
   SystemOptions options_;
   PinholeCamera camera_;
@@ -114,6 +118,7 @@ class Tracker {
   int lost_frames_ = 0;
   int losses_ = 0;
   int relocalisations_ = 0;
+  int implausible_jumps_ = 0;
   std::optional<Relocaliser> relocaliser_;
 };
 
