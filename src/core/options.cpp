@@ -74,7 +74,7 @@ void DynamicOptions::validate() const {
   requireInRange(s, "mask_dilation_px", mask_dilation_px, 0, 100);
   requireInRange(s, "carried_mask_growth_px", carried_mask_growth_px, 0, 100);
   requireInRange(s, "carried_mask_max_growth_px", carried_mask_max_growth_px, 0, 300);
-  requireInRange(s, "late_mask_mapping_margin_px", late_mask_mapping_margin_px, 0, 300);
+  requireInRange(s, "mapping_margin_px", mapping_margin_px, 0, 300);
   requireInRange(s, "stage1_search_radius_px", stage1_search_radius_px, 1.0, 200.0);
   requireInRange(s, "stage1_max_descriptor_distance", stage1_max_descriptor_distance, 0, 256);
   requireInRange(s, "stage1_match_ratio", stage1_match_ratio, 0.1, 1.0);

@@ -180,7 +180,7 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   frame.depth = depth;
   frame.depth_time_offset = depth_time_offset;
   frame.dynamic_mask = dynamic_mask;
-  if (stats.mask_age > 0) frame.mapping_margin_px = options_.dynamic.late_mask_mapping_margin_px;
+  if (!dynamic_mask.empty()) frame.mapping_margin_px = options_.dynamic.mapping_margin_px;
   stats.features = static_cast<int>(frame.features->size());
   if (!frame.dynamic_mask.empty()) {
     const std::vector<uint8_t> in_mask = dynamic::featuresInMask(*frame.features, frame.dynamic_mask);
