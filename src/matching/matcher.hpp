@@ -46,7 +46,8 @@ std::vector<std::pair<int, int>> matchDescriptors(const map::FeatureSet& a, cons
 
 // Projects `points` into keyframe kf and fuses duplicates: where the matching feature already
 // has a point, the one with fewer observations is replaced by the other; else an observation is
-// added. Requires the Map lock held exclusively. Returns the number of points fused or added.
+// added. Features the keyframe does not use (dynamic status) are never candidates. Requires the
+// Map lock held exclusively. Returns the number of points fused or added.
 int fuseIntoKeyframe(map::Map& map, map::Keyframe* kf, const std::vector<map::MapPoint*>& points,
                      const PinholeCamera& camera, double radius, const MatcherOptions& options);
 

@@ -1,0 +1,304 @@
+// Tracker gates on the rendered synthetic room (sim/), tracked inline with local mapping:
+//  - tracking.max_speed_m_s: a frame tracked from the previous one whose camera centre moved
+//    faster than that is lost (Tracker::implausibleJumps()).
+//  - Frame::mapping_margin_px: a keyframe maps nothing within that many pixels of the dynamic
+//    mask, and is not made when fewer than 100 mappable features remain.
+// dynamic.mode "off": stage 1/2 leave the statuses alone, so the tests set them as they need.
+#include <cmath>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include "core/camera.hpp"
+#include "core/options.hpp"
+#include "feature/orb_extractor.hpp"
+#include "map/frame.hpp"
+#include "map/map.hpp"
+#include "mapping/local_mapper.hpp"
+#include "sim/camera_path.hpp"
+#include "sim/synthetic_scene.hpp"
+#include "tracking/tracker.hpp"
+
+namespace desslam::tracking {
+namespace {
+
+SystemOptions baseOptions() {
+  SystemOptions o;
+  o.camera = sim::syntheticCamera();
+  o.semantic.segmenter = "none";
+  o.dynamic.mode = "off";
+  o.dense.enabled = false;
+  return o;
+}
+
+// A Tracker and a LocalMapper (run inline) on the synthetic room, and frames rendered from it.
+class Rig {
+ public:
+  explicit Rig(const SystemOptions& options)
+      : options_(options),
+        camera_(options_.camera),
+        scene_(sim::SceneOptions{}, options_.camera),
+        extractor_(options_.orb),
+        pyramid_(std::make_shared<feature::ScalePyramid>(extractor_.pyramid())),
+        tracker_(options_, camera_, map_),
+        mapper_(options_, camera_, map_) {
+    options_.validate();
+  }
+
+  map::Frame render(const SE3& T_w_c, Timestamp t, uint64_t id) const {
+    const sim::RenderedFrame rendered = scene_.render(T_w_c, t);
+    cv::Mat gray;
+    cv::cvtColor(rendered.bgr, gray, cv::COLOR_BGR2GRAY);
+    std::vector<cv::KeyPoint> keypoints;
+    cv::Mat descriptors;
+    extractor_.extract(gray, keypoints, descriptors);
+    auto features = map::buildFeatureSet(std::move(keypoints), std::move(descriptors), camera_, rendered.depth,
+                                         pyramid_, options_.tracking.min_depth, options_.tracking.max_depth);
+    map::Frame frame(id, t, "synthetic_" + std::to_string(id), std::move(features));
+    frame.depth = rendered.depth;
+    return frame;
+  }
+
+  // Tracks the frame; a new keyframe is handed to local mapping only after `inspect` saw it.
+  TrackOutcome track(map::Frame& frame, const std::function<void(const TrackOutcome&)>& inspect = {}) {
+    const TrackOutcome outcome = tracker_.track(frame, /*mapping_idle=*/true);
+    if (inspect) inspect(outcome);
+    if (outcome.new_keyframe != nullptr) mapper_.process(outcome.new_keyframe, nullptr);
+    return outcome;
+  }
+
+  const Tracker& tracker() const { return tracker_; }
+  map::Map& map() { return map_; }
+
+ private:
+  SystemOptions options_;
+  PinholeCamera camera_;
+  sim::SyntheticScene scene_;
+  feature::OrbExtractor extractor_;
+  std::shared_ptr<const feature::ScalePyramid> pyramid_;
+  map::Map map_;
+  Tracker tracker_;
+  mapping::LocalMapper mapper_;
+};
+
+double cameraDistance(const SE3& T_c_w_a, const SE3& T_c_w_b) {
+  return (T_c_w_a.inverse().translation() - T_c_w_b.inverse().translation()).norm();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Speed gate
+
+constexpr int kSpeedFrames = 10;
+
+TEST(TrackerSpeedGate, DefaultLimitTracksTheSequenceLowLimitRefusesIt) {
+  const SystemOptions defaults = baseOptions();
+  ASSERT_DOUBLE_EQ(defaults.tracking.max_speed_m_s, 3.0);
+  const Trajectory path = sim::sweepPath(kSpeedFrames, defaults.camera.fps);
+  // The path moves several millimetres per frame: far below 3 m/s, far above 0.01 m/s.
+  const double step = (path[1].T_w_c.translation() - path[0].T_w_c.translation()).norm();
+  const double dt = path[1].timestamp - path[0].timestamp;
+  ASSERT_GT(step / dt, 0.1);
+  ASSERT_LT(step / dt, 1.0);
+
+  {
+    Rig rig(defaults);
+    for (int i = 0; i < kSpeedFrames; ++i) {
+      map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
+      EXPECT_TRUE(rig.track(frame).tracked) << "frame " << i;
+    }
+    EXPECT_EQ(rig.tracker().implausibleJumps(), 0);
+    EXPECT_EQ(rig.tracker().lostFrames(), 0);
+  }
+
+  SystemOptions slow = baseOptions();
+  slow.tracking.max_speed_m_s = 0.01;  // the lowest allowed
+  Rig rig(slow);
+  map::Frame first = rig.render(path[0].T_w_c, path[0].timestamp, 0);
+  ASSERT_TRUE(rig.track(first).tracked);  // initialisation: no previous frame to compare with
+  EXPECT_EQ(rig.tracker().implausibleJumps(), 0);
+  map::Frame second = rig.render(path[1].T_w_c, path[1].timestamp, 1);
+  const TrackOutcome outcome = rig.track(second);
+  EXPECT_FALSE(outcome.tracked);
+  EXPECT_EQ(outcome.new_keyframe, nullptr);
+  EXPECT_EQ(rig.tracker().implausibleJumps(), 1);
+  EXPECT_EQ(rig.tracker().lostFrames(), 1);
+  EXPECT_EQ(rig.tracker().state(), TrackingState::kLost);
+  EXPECT_EQ(rig.tracker().records().back().reference, nullptr);
+}
+
+// After 10 tracked frames, an image seen 0.3 m beside the last pose: 33 ms later it implies
+// 9 m/s (refused); 0.5 s later 0.6 m/s (tracked, at the displaced pose, which shows that the
+// estimate does find the jump and only the gate refuses it).
+TEST(TrackerSpeedGate, RefusesAPoseJumpInOneFrameButNotOverHalfASecond) {
+  const SystemOptions options = baseOptions();
+  const Trajectory path = sim::sweepPath(kSpeedFrames, options.camera.fps);
+  const StampedPose& last = path.back();
+  const SE3 T_w_jump(last.T_w_c.rotation(), last.T_w_c.translation() + last.T_w_c.rotation() * Vec3(0.3, 0.0, 0.0));
+  // Ground truth in the map's frame (the first camera's).
+  const SE3 expected_T_c_w = (path.front().T_w_c.inverse() * T_w_jump).inverse();
+
+  for (const double dt : {1.0 / options.camera.fps, 0.5}) {
+    SCOPED_TRACE("dt " + std::to_string(dt));
+    Rig rig(options);
+    for (int i = 0; i < kSpeedFrames; ++i) {
+      map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
+      ASSERT_TRUE(rig.track(frame).tracked) << "frame " << i;
+    }
+    ASSERT_EQ(rig.tracker().implausibleJumps(), 0);
+    map::Frame jump = rig.render(T_w_jump, last.timestamp + dt, kSpeedFrames);
+    const TrackOutcome outcome = rig.track(jump);
+    const bool too_fast = 0.3 / dt > options.tracking.max_speed_m_s;
+    EXPECT_EQ(outcome.tracked, !too_fast);
+    EXPECT_EQ(rig.tracker().implausibleJumps(), too_fast ? 1 : 0);
+    if (!too_fast) {
+      EXPECT_LT(cameraDistance(jump.T_c_w, expected_T_c_w), 0.03);
+    } else {
+      // The pose that was refused is the jump (not a tracking failure).
+      EXPECT_LT(cameraDistance(jump.T_c_w, expected_T_c_w), 0.03);
+      EXPECT_EQ(rig.tracker().state(), TrackingState::kLost);
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Mapping margin
+
+constexpr int kMarginFrames = 6;  // frames 0..4 without mask, frame 5 with one
+constexpr int kMarginPx = 40;
+
+// Every tracked frame that moved makes a keyframe (pose-change criterion with no threshold).
+SystemOptions keyframeEveryFrameOptions() {
+  SystemOptions o = baseOptions();
+  o.tracking.keyframe_translation = 0.0;
+  o.tracking.keyframe_still_translation = 0.0;
+  o.tracking.keyframe_still_rotation_deg = 0.0;
+  return o;
+}
+
+cv::Mat columnsMask(int width, int height, int from, int to) {
+  cv::Mat mask(height, width, CV_8U, cv::Scalar(0));
+  mask.colRange(from, to).setTo(255);
+  return mask;
+}
+
+// Pixel distance of a keypoint (rounded as featuresInMask rounds it) from columns [from, to).
+double distanceFromColumns(const cv::KeyPoint& kp, int from, int to) {
+  const long x = std::lround(kp.pt.x);
+  if (x < from) return static_cast<double>(from - x);
+  if (x >= to) return static_cast<double>(x - (to - 1));
+  return 0.0;
+}
+
+struct MarginResult {
+  TrackOutcome outcome;
+  size_t keyframes_before = 0, keyframes_after = 0;
+  // Of the last frame's features outside the mask: near = within (0, 38] px, far = beyond 42 px.
+  int near = 0, near_with_depth = 0, near_mapped = 0, near_status_masked = 0;
+  int far = 0, far_mapped = 0;
+  int near_mapped_after_mapping = 0;
+  int features = 0;
+};
+
+// Tracks frames 0..4 of the sweep path, then frame 5 with mask columns [from, to) and the given
+// margin. masked_status: the status given to the features in the mask (kStatic: stage 1 found
+// them static, as it does with a late mask where the people left).
+MarginResult runMargin(int from, int to, int margin, map::FeatureStatus masked_status) {
+  const SystemOptions options = keyframeEveryFrameOptions();
+  const Trajectory path = sim::sweepPath(kMarginFrames, options.camera.fps);
+  Rig rig(options);
+  MarginResult r;
+  for (int i = 0; i + 1 < kMarginFrames; ++i) {
+    map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
+    EXPECT_TRUE(rig.track(frame).tracked) << "frame " << i;
+  }
+  const int k = kMarginFrames - 1;
+  map::Frame frame = rig.render(path[k].T_w_c, path[k].timestamp, static_cast<uint64_t>(k));
+  frame.dynamic_mask = columnsMask(options.camera.width, options.camera.height, from, to);
+  frame.mapping_margin_px = margin;
+  const map::FeatureSet& features = *frame.features;
+  r.features = static_cast<int>(features.size());
+  for (size_t i = 0; i < features.size(); ++i)
+    if (distanceFromColumns(features.keypoints[i], from, to) == 0.0) frame.status[i] = masked_status;
+  {
+    std::shared_lock lock(rig.map().mutex());
+    r.keyframes_before = rig.map().keyframeCount();
+  }
+  r.outcome = rig.track(frame, [&](const TrackOutcome& outcome) {
+    map::Keyframe* kf = outcome.new_keyframe;
+    std::shared_lock lock(rig.map().mutex());
+    for (size_t i = 0; i < features.size(); ++i) {
+      const double d = distanceFromColumns(features.keypoints[i], from, to);
+      if (d > 0.0 && d <= kMarginPx - 2) {
+        ++r.near;
+        if (features.hasDepth(i)) ++r.near_with_depth;
+        if (kf != nullptr && kf->points[i] != nullptr) ++r.near_mapped;
+        if (kf != nullptr && kf->status[i] == map::FeatureStatus::kDynamicMask) ++r.near_status_masked;
+      } else if (d > kMarginPx + 2) {
+        ++r.far;
+        if (kf != nullptr && kf->points[i] != nullptr) ++r.far_mapped;
+      }
+    }
+  });
+  std::shared_lock lock(rig.map().mutex());
+  r.keyframes_after = rig.map().keyframeCount();
+  if (map::Keyframe* kf = r.outcome.new_keyframe; kf != nullptr && !kf->bad)
+    for (size_t i = 0; i < features.size(); ++i) {
+      const double d = distanceFromColumns(features.keypoints[i], from, to);
+      if (d > 0.0 && d <= kMarginPx - 2 && kf->points[i] != nullptr) ++r.near_mapped_after_mapping;
+    }
+  return r;
+}
+
+// A 80 px wide mask in the middle of the image; its features are out (kDynamicMask), so only the
+// margin decides about those beside it.
+constexpr int kStripFrom = 280, kStripTo = 360;
+
+TEST(TrackerMappingMargin, KeyframeMapsNothingWithinTheMarginOfTheMask) {
+  const MarginResult r = runMargin(kStripFrom, kStripTo, kMarginPx, map::FeatureStatus::kDynamicMask);
+  ASSERT_TRUE(r.outcome.tracked);
+  ASSERT_NE(r.outcome.new_keyframe, nullptr);
+  EXPECT_EQ(r.keyframes_after, r.keyframes_before + 1);
+  ASSERT_GE(r.near_with_depth, 20) << "too few features beside the mask for the test to mean anything";
+  EXPECT_EQ(r.near_mapped, 0) << "of " << r.near << " features within " << kMarginPx << " px of the mask";
+  EXPECT_EQ(r.near_status_masked, r.near);
+  EXPECT_EQ(r.near_mapped_after_mapping, 0) << "local mapping gave the margin's features points";
+  EXPECT_GE(r.far_mapped, 100) << "of " << r.far << " features farther away";
+}
+
+TEST(TrackerMappingMargin, WithoutMarginFeaturesBesideTheMaskAreMapped) {
+  const MarginResult r = runMargin(kStripFrom, kStripTo, 0, map::FeatureStatus::kDynamicMask);
+  ASSERT_TRUE(r.outcome.tracked);
+  ASSERT_NE(r.outcome.new_keyframe, nullptr);
+  ASSERT_GE(r.near_with_depth, 20);
+  EXPECT_GE(r.near_mapped, r.near_with_depth / 2) << "of " << r.near_with_depth << " with depth";
+  EXPECT_EQ(r.near_status_masked, 0);
+  EXPECT_GE(r.far_mapped, 100);
+}
+
+// The mask covers all but the right 60 px (its features stay static: the frame is tracked with
+// them), the margin leaves a 20 px strip: fewer than 100 mappable features, so no keyframe.
+constexpr int kWideTo = 580;
+
+TEST(TrackerMappingMargin, NoKeyframeWhenTheMarginLeavesTooLittleToMap) {
+  const MarginResult r = runMargin(0, kWideTo, kMarginPx, map::FeatureStatus::kStatic);
+  ASSERT_GE(r.features, 300);
+  EXPECT_TRUE(r.outcome.tracked);
+  EXPECT_GT(r.outcome.inliers, 100);
+  EXPECT_EQ(r.outcome.new_keyframe, nullptr);
+  EXPECT_EQ(r.keyframes_after, r.keyframes_before);
+}
+
+TEST(TrackerMappingMargin, SameFrameWithoutMarginMakesAKeyframe) {
+  const MarginResult r = runMargin(0, kWideTo, 0, map::FeatureStatus::kStatic);
+  EXPECT_TRUE(r.outcome.tracked);
+  EXPECT_NE(r.outcome.new_keyframe, nullptr);
+  EXPECT_EQ(r.keyframes_after, r.keyframes_before + 1);
+}
+
+}  // namespace
+}  // namespace desslam::tracking
