@@ -158,7 +158,6 @@ int fuseIntoKeyframe(map::Map& map, map::Keyframe* kf, const std::vector<map::Ma
     int best = std::numeric_limits<int>::max();
     int best_index = -1;
     for (int i : features.inArea(uv.x(), uv.y(), r, level - 1, level + 1)) {
-      if (!kf->usable(i)) continue;  // dynamic (or within the mapping margin): never mapped
       const int lvl = features.level(i);
       const Vec2 e = features.uv[i] - uv;
       double chi2 = e.squaredNorm();

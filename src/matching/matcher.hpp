@@ -46,8 +46,9 @@ std::vector<std::pair<int, int>> matchDescriptors(const map::FeatureSet& a, cons
 
 // Projects `points` into keyframe kf and fuses duplicates: where the matching feature already
 // has a point, the one with fewer observations is replaced by the other; else an observation is
-// added. Features the keyframe does not use (dynamic status) are never candidates. Requires the
-// Map lock held exclusively. Returns the number of points fused or added.
+// added. Features the keyframe marks dynamic are candidates too: a match with a point made
+// elsewhere vouches for a feature stage 1 could not verify. Requires the Map lock held
+// exclusively. Returns the number of points fused or added.
 int fuseIntoKeyframe(map::Map& map, map::Keyframe* kf, const std::vector<map::MapPoint*>& points,
                      const PinholeCamera& camera, double radius, const MatcherOptions& options);
 
