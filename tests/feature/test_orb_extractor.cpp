@@ -218,7 +218,9 @@ TEST(OrbExtractor, PyramidAndQuotas) {
   int sum = 0;
   for (size_t l = 0; l < quota.size(); ++l) {
     sum += quota[l];
-    if (l > 0) EXPECT_LT(quota[l], quota[l - 1]) << "coarser levels must get fewer features";
+    if (l > 0) {
+      EXPECT_LT(quota[l], quota[l - 1]) << "coarser levels must get fewer features";
+    }
   }
   EXPECT_EQ(sum, options.num_features);
   // Area series: consecutive quotas differ by 1.2^2.
