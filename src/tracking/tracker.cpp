@@ -23,7 +23,7 @@ constexpr double kLocalMapRadius = 3.0;    // RGB-D local-map window factor
 constexpr int kCloseTrackedNeeded = 100;   // "need close points" keyframe criterion
 constexpr int kCloseUntrackedEnough = 70;
 constexpr int kMinNewDepthPoints = 100;    // a keyframe gets at least this many depth points
-constexpr int kMinKeyframeObservations = 100;  // mappable features a keyframe needs (late masks)
+constexpr int kMinKeyframeObservations = 100;  // mappable features a keyframe needs beside a mask
 constexpr size_t kRecoveryKeyframes = 8;   // when lost, the newest keyframes tried before giving up
 constexpr double kStillTranslation = 0.005;        // metres per frame below which motion is negligible
 constexpr double kStillRotation = 0.5 * M_PI / 180;  // radians per frame
@@ -576,12 +576,13 @@ int Tracker::applyStage2(map::Frame& frame) {
 
 map::Keyframe* Tracker::createKeyframe(map::Frame& frame) {
   map::Keyframe* kf = nullptr;
+  std::vector<uint8_t> excluded;  // within the mapping margin (computed before taking the lock)
+  if (frame.mapping_margin_px > 0 && !frame.dynamic_mask.empty())
+    excluded = dynamic::featuresInMask(*frame.features, dynamic::dilateMask(frame.dynamic_mask, frame.mapping_margin_px));
   {
     std::unique_lock lock(map_.mutex());
     std::vector<map::FeatureStatus> status = frame.status;
-    if (frame.mapping_margin_px > 0 && !frame.dynamic_mask.empty()) {
-      const std::vector<uint8_t> excluded =
-          dynamic::featuresInMask(*frame.features, dynamic::dilateMask(frame.dynamic_mask, frame.mapping_margin_px));
+    if (!excluded.empty()) {
       int mappable = 0;
       for (size_t i = 0; i < status.size(); ++i) {
         if (excluded[i] && status[i] == map::FeatureStatus::kStatic) status[i] = map::FeatureStatus::kDynamicMask;
