@@ -21,6 +21,7 @@
 #include "mapping/local_mapper.hpp"
 #include "sim/camera_path.hpp"
 #include "sim/synthetic_scene.hpp"
+#include "tracking/synthetic_frame.hpp"
 #include "tracking/relocaliser.hpp"
 #include "tracking/tracker.hpp"
 
@@ -58,17 +59,7 @@ class RelocalisationScene {
 
   // A frame of the scene seen from T_w_c (world = the room's frame, not the map's) at time t.
   map::Frame render(const SE3& T_w_c, Timestamp t, uint64_t id) const {
-    const sim::RenderedFrame rendered = scene_.render(T_w_c, t);
-    cv::Mat gray;
-    cv::cvtColor(rendered.bgr, gray, cv::COLOR_BGR2GRAY);
-    std::vector<cv::KeyPoint> keypoints;
-    cv::Mat descriptors;
-    extractor_.extract(gray, keypoints, descriptors);
-    auto features = map::buildFeatureSet(std::move(keypoints), std::move(descriptors), camera_, rendered.depth,
-                                         pyramid_, options_.tracking.min_depth, options_.tracking.max_depth);
-    map::Frame frame(id, t, "synthetic_" + std::to_string(id), std::move(features));
-    frame.depth = rendered.depth;
-    return frame;
+    return desslam::test::renderSyntheticFrame(scene_, extractor_, pyramid_, camera_, options_.tracking, T_w_c, t, id);
   }
   map::Frame frameAt(int path_index) const {
     const auto& pose = path_.at(static_cast<size_t>(path_index));

@@ -24,6 +24,7 @@
 #include "mapping/local_mapper.hpp"
 #include "sim/camera_path.hpp"
 #include "sim/synthetic_scene.hpp"
+#include "tracking/synthetic_frame.hpp"
 #include "tracking/tracker.hpp"
 
 namespace desslam::tracking {
@@ -53,17 +54,7 @@ class Rig {
   }
 
   map::Frame render(const SE3& T_w_c, Timestamp t, uint64_t id) const {
-    const sim::RenderedFrame rendered = scene_.render(T_w_c, t);
-    cv::Mat gray;
-    cv::cvtColor(rendered.bgr, gray, cv::COLOR_BGR2GRAY);
-    std::vector<cv::KeyPoint> keypoints;
-    cv::Mat descriptors;
-    extractor_.extract(gray, keypoints, descriptors);
-    auto features = map::buildFeatureSet(std::move(keypoints), std::move(descriptors), camera_, rendered.depth,
-                                         pyramid_, options_.tracking.min_depth, options_.tracking.max_depth);
-    map::Frame frame(id, t, "synthetic_" + std::to_string(id), std::move(features));
-    frame.depth = rendered.depth;
-    return frame;
+    return desslam::test::renderSyntheticFrame(scene_, extractor_, pyramid_, camera_, options_.tracking, T_w_c, t, id);
   }
 
   // Tracks the frame; a new keyframe is handed to local mapping only after `inspect` saw it.
