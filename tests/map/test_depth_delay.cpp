@@ -11,6 +11,7 @@
 
 #include "core/camera.hpp"
 #include "core/se3.hpp"
+#include "dynamic/constructed_features.hpp"
 #include "feature/orb_extractor.hpp"
 #include "map/features.hpp"
 
@@ -19,15 +20,7 @@ namespace {
 
 constexpr double kMinDepth = 0.1, kMaxDepth = 10.0;
 
-PinholeCamera testCamera() {
-  CameraOptions c;
-  c.fx = c.fy = 525.0;
-  c.cx = 319.5;
-  c.cy = 239.5;
-  c.width = 640;
-  c.height = 480;
-  return PinholeCamera(c);
-}
+PinholeCamera testCamera() { return PinholeCamera(dynamic::test::testCameraOptions()); }
 
 enum class Surface { kNone, kPlane, kBox };
 
