@@ -24,8 +24,8 @@
 #include "eval/association.hpp"
 #include "feature/orb_extractor.hpp"
 #include "io/tum_dataset.hpp"
-#include "loop/bow_database.hpp"
-#include "loop/vocabulary.hpp"
+#include "place/bow_database.hpp"
+#include "place/vocabulary.hpp"
 
 namespace desslam::app {
 namespace {
@@ -118,7 +118,7 @@ std::vector<cv::Mat> extractDescriptors(const std::vector<fs::path>& images, con
 }
 
 void runTrain(const TrainArgs& args) {
-  loop::VocabularyOptions options;
+  place::VocabularyOptions options;
   options.branching = args.branching;
   options.depth = args.depth;
   options.kmeans_iterations = args.iterations;
@@ -146,7 +146,7 @@ void runTrain(const TrainArgs& args) {
   const double extraction_s = secondsSince(start);
 
   const auto train_start = std::chrono::steady_clock::now();
-  const loop::Vocabulary vocabulary = loop::Vocabulary::train(sets, options);
+  const place::Vocabulary vocabulary = place::Vocabulary::train(sets, options);
   const double training_s = secondsSince(train_start);
   vocabulary.save(args.out);
   std::size_t descriptors = 0;
@@ -161,7 +161,7 @@ void runTrain(const TrainArgs& args) {
 
 void runCheck(const CheckArgs& args) {
   if (args.every < 1) throw ConfigError("--every must be >= 1");
-  const loop::Vocabulary vocabulary = loop::Vocabulary::load(args.vocab);
+  const place::Vocabulary vocabulary = place::Vocabulary::load(args.vocab);
   const io::TumSequence sequence = io::TumSequence::open(args.sequence);
   if (!sequence.groundTruth()) throw InputError(args.sequence + " has no groundtruth.txt; the check needs it");
 
@@ -173,7 +173,7 @@ void runCheck(const CheckArgs& args) {
   struct Keyframe {
     fs::path image;
     SE3 T_w_c;
-    loop::BowVector bow;
+    place::BowVector bow;
   };
   std::vector<Keyframe> keyframes;
   for (const eval::Match& m : eval::associate(gt, stamps, 0.02))
@@ -188,7 +188,7 @@ void runCheck(const CheckArgs& args) {
   const double transform_ms = 1000.0 * secondsSince(start) / double(keyframes.size());
 
   const std::size_t half = keyframes.size() / 2;
-  loop::BowDatabase database(vocabulary);
+  place::BowDatabase database(vocabulary);
   for (std::size_t i = 0; i < half; ++i) database.add(i, keyframes[i].bow);
   auto near = [&](std::size_t a, std::size_t b) {
     const SE3 T_a_b = keyframes[a].T_w_c.inverse() * keyframes[b].T_w_c;

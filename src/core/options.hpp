@@ -265,7 +265,7 @@ struct DenseOptions {
 struct RelocalisationOptions {
   bool enabled = true;
   // Bag-of-words vocabulary file; empty: vocab/desslam_orb_k10l5.bin of the project, looked for
-  // by loop::resolveVocabularyPath (beside the working directory or the program).
+  // by place::resolveVocabularyPath (beside the working directory or the program).
   std::string vocabulary;
   int direct_index_level = 2;        // vocabulary tree level (root = 0) grouping features for matching
   int max_candidates = 10;           // best-scoring keyframes (or covisibility groups) tried
@@ -332,6 +332,35 @@ struct LoopOptions {
   void validate() const;
 };
 
+// Continuity (tracking/tracker.hpp, loop/loop_closer.hpp): when a map cannot be started or
+// tracking is lost, a new map starts instead of waiting; place recognition merges maps again.
+struct AtlasOptions {
+  bool enabled = true;  // off: lost stays lost until relocalisation succeeds (one map)
+  // A map starts only from a frame with this many static, depth-backed features (ORB-SLAM2's RGB-D
+  // start asks for 500), spread over at least min_initial_cells of a 4 x 4 image grid (a corner
+  // left by a crowd is too weak an anchor); otherwise the next frame is tried.
+  int min_initial_features = 500;
+  int min_initial_cells = 6;
+  // Relocalisation (against every map) is tried for this long after a loss; then a new map starts
+  // at the current frame. 0: at the first frame relocalisation fails.
+  double new_map_after_lost_s = 0.1;
+  // A map lost before it has this many keyframes gets no relocalisation time: a new one starts at
+  // once (a young map has too little to relocalise against).
+  int young_map_keyframes = 5;
+  // A keyframe recognised in another map must recur over this many consecutive keyframes before
+  // the maps are merged (loop.min_consistent_keyframes applies to loops within a map).
+  int merge_min_consistent_keyframes = 2;
+
+  static constexpr const char* kSection = "atlas";
+  template <class V> void fields(V& v) {
+    v("enabled", enabled); v("min_initial_features", min_initial_features);
+    v("min_initial_cells", min_initial_cells); v("new_map_after_lost_s", new_map_after_lost_s);
+    v("young_map_keyframes", young_map_keyframes);
+    v("merge_min_consistent_keyframes", merge_min_consistent_keyframes);
+  }
+  void validate() const;
+};
+
 // Everything a run is configured with (one YAML file, one section per struct).
 struct SystemOptions {
   CameraOptions camera;
@@ -343,9 +372,10 @@ struct SystemOptions {
   DenseOptions dense;
   LoopOptions loop;
   RelocalisationOptions relocalisation;
+  AtlasOptions atlas;
 
   template <class F> void sections(F&& f) {
-    f(camera); f(orb); f(tracking); f(mapping); f(dynamic); f(semantic); f(dense); f(loop); f(relocalisation);
+    f(camera); f(orb); f(tracking); f(mapping); f(dynamic); f(semantic); f(dense); f(loop); f(relocalisation); f(atlas);
   }
   void validate() const;
 };

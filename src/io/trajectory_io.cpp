@@ -56,4 +56,23 @@ void writeTumTrajectory(const std::filesystem::path& path, const Trajectory& tra
   std::filesystem::rename(tmp, path);
 }
 
+void writeAtlasTrajectory(const std::filesystem::path& path, const AtlasTrajectory& trajectory) {
+  if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
+  const std::filesystem::path tmp = path.string() + ".tmp";
+  {
+    std::FILE* f = std::fopen(tmp.c_str(), "w");
+    if (f == nullptr) throw InputError("cannot write trajectory file " + path.string() + ": check permissions");
+    std::fprintf(f, "# timestamp tx ty tz qx qy qz qw map world_map (world-from-camera in world_map's world;\n"
+                    "# map: the atlas map the frame was tracked in, world_map: the map it was merged into or itself)\n");
+    for (const auto& sp : trajectory) {
+      const Quat& q = sp.T_w_c.quaternion();
+      const Vec3& t = sp.T_w_c.translation();
+      std::fprintf(f, "%.6f %.9f %.9f %.9f %.9f %.9f %.9f %.9f %d %d\n", sp.timestamp, t.x(), t.y(), t.z(), q.x(),
+                   q.y(), q.z(), q.w(), sp.map, sp.world_map);
+    }
+    if (std::fclose(f) != 0) throw InputError("failed writing trajectory file " + tmp.string());
+  }
+  std::filesystem::rename(tmp, path);
+}
+
 }  // namespace desslam::io

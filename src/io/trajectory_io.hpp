@@ -12,5 +12,10 @@ namespace desslam::io {
 Trajectory readTumTrajectory(const std::filesystem::path& path);
 // Six decimals for timestamps (as the datasets write them), nine for pose values.
 void writeTumTrajectory(const std::filesystem::path& path, const Trajectory& trajectory);
+// CameraTrajectory_all.txt: every frame of every map, "timestamp tx ty tz qx qy qz qw map
+// world_map" (TUM's eight columns, then the map the frame was tracked in and the map whose world
+// the pose is in). TUM tools that read the first eight columns read it as one trajectory, which it
+// is only where world_map is the same.
+void writeAtlasTrajectory(const std::filesystem::path& path, const AtlasTrajectory& trajectory);
 
 }  // namespace desslam::io

@@ -23,7 +23,7 @@ constexpr double kFuseRadiusPx = 4.0;
 // Holds a MappingPause for a scope (no-op without one).
 class PauseScope {
  public:
-  explicit PauseScope(MappingPause* pause) : pause_(pause) {
+  explicit PauseScope(mapping::MappingPause* pause) : pause_(pause) {
     if (pause_ != nullptr) pause_->pause();
   }
   ~PauseScope() {
@@ -33,62 +33,21 @@ class PauseScope {
   PauseScope& operator=(const PauseScope&) = delete;
 
  private:
-  MappingPause* pause_;
+  mapping::MappingPause* pause_;
 };
 }  // namespace
-
-// ---------------------------------------------------------------- MappingPause
-
-void MappingPause::enter() {
-  std::unique_lock lock(mutex_);
-  cv_.wait(lock, [&] { return pausers_ == 0; });
-  working_ = true;
-}
-
-void MappingPause::leave() {
-  {
-    std::lock_guard lock(mutex_);
-    working_ = false;
-  }
-  cv_.notify_all();
-}
-
-void MappingPause::setAbortFlag(std::atomic<bool>* flag) {
-  std::lock_guard lock(mutex_);
-  abort_flag_ = flag;
-}
-
-void MappingPause::pause() {
-  std::unique_lock lock(mutex_);
-  ++pausers_;
-  if (abort_flag_ != nullptr) *abort_flag_ = true;
-  cv_.wait(lock, [&] { return !working_; });
-}
-
-void MappingPause::resume() {
-  {
-    std::lock_guard lock(mutex_);
-    if (pausers_ > 0) --pausers_;
-  }
-  cv_.notify_all();
-}
-
-bool MappingPause::paused() const {
-  std::lock_guard lock(mutex_);
-  return pausers_ > 0;
-}
 
 // ---------------------------------------------------------------- LoopCloser
 
 LoopCloser::LoopCloser(const SystemOptions& options, const PinholeCamera& camera, map::Map& map,
-                       KeyframeDatabase& database, MappingPause* pause, GlobalBaMode global_ba)
+                       place::KeyframeDatabase& database, mapping::MappingPause* pause, GlobalBaMode global_ba)
     : options_(options),
       camera_(camera),
       map_(map),
       pause_(pause),
       global_ba_mode_(options.loop.global_ba ? global_ba : GlobalBaMode::kOff),
       bf_(camera.fx() * options.tracking.depth_baseline),
-      detector_(options.loop, camera, map, database) {}
+      detector_(options.loop, camera, map, database, options.atlas) {}
 
 LoopCloser::~LoopCloser() { abortGlobalBa(); }
 
@@ -136,178 +95,245 @@ bool LoopCloser::correctLoop(const LoopMatch& match) {
   return true;
 }
 
-bool LoopCloser::applyLoopCorrection(const LoopMatch& match, uint64_t& newest_in_graph) {
+// ---- the named steps loop correction and map merging share (each documents the lock it needs)
+
+bool LoopCloser::mergeMaps(LoopMatch& match) {
+  // Rigid move of the whole younger map into the older one's world; tracking waits (world gate).
+  std::unique_lock world(map_.worldGate());
+  std::unique_lock lock(map_.mutex());
+  map::Keyframe* current = match.current;
+  map::Keyframe* loop = match.loop;
+  if (current->bad || loop->bad || current->map_id == loop->map_id) return false;
+  MergedMaps merged;
+  // match.T_w_c_corrected is K's pose in L's world: T_wL_wK = T_wL_K * T_K_wK.
+  const SE3 T_wL_wK = match.T_w_c_corrected * current->T_c_w;
+  if (loop->map_id < current->map_id) {
+    merged = {current->map_id, loop->map_id, T_wL_wK};
+  } else {
+    merged = {loop->map_id, current->map_id, T_wL_wK.inverse()};
+  }
+  merged.current_keyframe = current->id;
+  merged.loop_keyframe = loop->id;
+  merged.timestamp = current->timestamp;
+  merged.inliers = match.inliers;
+  map_.mergeMap(merged.from_map, merged.into_map, merged.T_into_from, current->timestamp);
+  // One world now: what is left at K is the drift a loop corrects (none right after the move).
+  match.T_w_c_corrected = current->T_w_c();
+  {
+    std::lock_guard s(stats_mutex_);
+    stats_.merges.push_back(merged);
+  }
+  return true;
+}
+
+SE3 LoopCloser::correctNeighbourhood(const LoopMatch& match, const std::vector<map::Keyframe*>& connected,
+                                     const std::map<uint64_t, SE3>& old_T_w_c) {
+  const SE3 C = match.T_w_c_corrected * match.current->T_c_w;
+  std::set<map::MapPoint*> moved;
+  for (map::Keyframe* k : connected)
+    for (map::MapPoint* p : k->points)
+      if (p != nullptr && !p->bad && moved.insert(p).second) p->position = C * p->position;
+  for (map::Keyframe* k : connected) k->T_c_w = (C * old_T_w_c.at(k->id)).inverse();
+  return C;
+}
+
+size_t LoopCloser::replaceDuplicatedPoints(const LoopMatch& match, const std::vector<map::Keyframe*>& connected) {
+  map::Keyframe* current = match.current;
+  size_t fused = 0;
+  // K's matched points become the loop's.
+  for (size_t i = 0; i < match.matched_points.size(); ++i) {
+    map::MapPoint* loop_point = match.matched_points[i];
+    if (loop_point == nullptr || loop_point->bad) continue;
+    map::MapPoint* own = current->points[i];
+    if (own == loop_point) continue;
+    if (own != nullptr && !own->bad) {
+      map::replacePoint(map_, own, loop_point);
+      ++fused;
+    } else if (loop_point->observations.count(current->id) == 0) {
+      map::addObservation(loop_point, current, static_cast<int>(i));
+      map::updateDescriptor(loop_point);
+      ++fused;
+    }
+  }
+  // The loop group's points are fused into K's neighbourhood by projection.
+  std::vector<map::MapPoint*> loop_points;
+  {
+    std::set<map::MapPoint*> unique;
+    std::vector<map::Keyframe*> group{match.loop};
+    for (map::Keyframe* nb : map::bestCovisibles(match.loop, options_.loop.group_size)) group.push_back(nb);
+    for (map::Keyframe* g : group)
+      for (map::MapPoint* p : g->points)
+        if (p != nullptr && !p->bad && unique.insert(p).second) loop_points.push_back(p);
+  }
+  matching::MatcherOptions matcher;
+  matcher.bf = bf_;
+  for (map::Keyframe* k : connected)
+    fused += static_cast<size_t>(matching::fuseIntoKeyframe(map_, k, loop_points, camera_, kFuseRadiusPx, matcher));
+  return fused;
+}
+
+void LoopCloser::updateLoopConnections(const LoopMatch& match, const std::vector<map::Keyframe*>& connected,
+                                       const std::map<uint64_t, std::set<uint64_t>>& links_before) {
+  std::set<uint64_t> connected_ids;
+  for (map::Keyframe* k : connected) connected_ids.insert(k->id);
+  for (map::Keyframe* k : connected) {
+    for (map::MapPoint* p : k->points)
+      if (p != nullptr && !p->bad) map::updateNormalAndDepth(p);
+    map::updateConnections(k);
+  }
+  // New links from K's neighbourhood to keyframes outside it are the loop's edges.
+  bool linked_to_loop = false;
+  for (map::Keyframe* k : connected)
+    for (auto& [id, entry] : k->connection_weights) {
+      auto before = links_before.find(k->id);
+      if (connected_ids.count(id) != 0 || (before != links_before.end() && before->second.count(id) != 0)) continue;
+      loop_edges_.emplace_back(k, entry.first);
+      linked_to_loop = linked_to_loop || entry.first == match.loop;
+    }
+  if (!linked_to_loop) loop_edges_.emplace_back(match.current, match.loop);
+}
+
+LoopCloser::EssentialGraph LoopCloser::buildEssentialGraph(const map::Keyframe* loop,
+                                                           const std::map<uint64_t, SE3>& old_T_w_c) const {
+  EssentialGraph graph;
+  std::map<uint64_t, int> index;
+  // The loop's map only: other maps of the atlas have worlds of their own.
+  for (map::Keyframe* k : map_.keyframes()) {
+    if (k->map_id != loop->map_id) continue;
+    index[k->id] = static_cast<int>(graph.keyframes.size());
+    graph.keyframes.push_back(k);
+    graph.snapshot_T_c_w[k->id] = k->T_c_w;
+    graph.nodes.push_back({k->T_w_c(), k == loop});
+    graph.newest = std::max(graph.newest, k->id);
+  }
+  auto oldRelative = [&](map::Keyframe* a, map::Keyframe* b) {
+    auto ia = old_T_w_c.find(a->id), ib = old_T_w_c.find(b->id);
+    // Keyframes created while this ran have no "old" pose: their present one is it.
+    const SE3 Ta = ia != old_T_w_c.end() ? ia->second : a->T_w_c();
+    const SE3 Tb = ib != old_T_w_c.end() ? ib->second : b->T_w_c();
+    return Ta.inverse() * Tb;
+  };
+  std::set<std::pair<int, int>> added;
+  auto addEdge = [&](map::Keyframe* a, map::Keyframe* b, const SE3& T_a_b) {
+    auto ia = index.find(a->id), ib = index.find(b->id);
+    if (ia == index.end() || ib == index.end() || ia->second == ib->second) return;
+    const auto key = std::minmax(ia->second, ib->second);
+    if (!added.insert(key).second) return;
+    graph.edges.push_back({ia->second, ib->second, T_a_b, 1.0});
+  };
+  // Loop edges first (measured on the corrected poses) so they win over odometry duplicates.
+  for (auto& [a, b] : loop_edges_)
+    if (!a->bad && !b->bad) addEdge(a, b, a->T_w_c().inverse() * b->T_w_c());
+  for (map::Keyframe* k : graph.keyframes) {
+    if (k->parent != nullptr && !k->parent->bad) addEdge(k->parent, k, oldRelative(k->parent, k));
+    for (map::Keyframe* nb : map::covisiblesWithWeight(k, options_.loop.strong_covisibility_weight))
+      if (nb->id < k->id) addEdge(nb, k, oldRelative(nb, k));
+  }
+  return graph;
+}
+
+SE3 LoopCloser::applyPoseGraph(const EssentialGraph& graph, bool usable, const map::Keyframe* current,
+                               int map_id, const SE3& C) {
+  std::map<uint64_t, SE3> correction;  // keyframe id -> T_wnew_wsnapshot
+  for (size_t i = 0; i < graph.keyframes.size(); ++i) {
+    map::Keyframe* k = graph.keyframes[i];
+    const SE3 D = usable ? graph.nodes[i].T_w_c * graph.snapshot_T_c_w.at(k->id) : SE3();
+    correction[k->id] = D;
+    if (!k->bad) k->T_c_w = (D * k->T_w_c()).inverse();
+  }
+  const SE3 current_correction = correction.count(current->id) ? correction[current->id] : SE3();
+  // Keyframes tracking made while this ran were placed in the old world.
+  for (map::Keyframe* k : map_.keyframes()) {
+    if (k->map_id != map_id || correction.count(k->id) != 0) continue;
+    const SE3 D = current_correction * C;
+    correction[k->id] = D;
+    k->T_c_w = (D * k->T_w_c()).inverse();
+  }
+  // Points follow their reference keyframe (or any observer the graph moved).
+  for (map::MapPoint* p : map_.points()) {
+    if (p->map_id != map_id) continue;
+    const map::Keyframe* ref = p->reference;
+    auto it = ref != nullptr ? correction.find(ref->id) : correction.end();
+    if (it == correction.end()) {
+      for (auto& [kid, obs] : p->observations) {
+        it = correction.find(kid);
+        if (it != correction.end()) break;
+      }
+    }
+    if (it == correction.end()) continue;
+    p->position = it->second * p->position;
+    map::updateNormalAndDepth(p);
+  }
+  return current_correction;
+}
+
+bool LoopCloser::applyLoopCorrection(const LoopMatch& detected, uint64_t& newest_in_graph) {
   const auto start = Clock::now();
   std::lock_guard correction(correction_mutex_);
   PauseScope paused(pause_);
 
+  LoopMatch match = detected;
+  const auto skipped = [&] {
+    std::lock_guard s(stats_mutex_);
+    ++stats_.loops_skipped;
+    return false;
+  };
+  // Step 0 (a merge): the two maps become one, by the rigid transform recognition found.
+  if (match.merge && !mergeMaps(match)) return skipped();
+
   map::Keyframe* current = match.current;
   map::Keyframe* loop = match.loop;
-  std::vector<optim::PoseGraphNode> nodes;
-  std::vector<optim::PoseGraphEdge> edges;
-  std::vector<map::Keyframe*> graph_keyframes;
-  std::map<uint64_t, SE3> snapshot_T_c_w;  // poses the pose graph starts from
-  SE3 C;                                   // T_wnew_wold of step 2
+  EssentialGraph graph;
+  SE3 C;  // T_wnew_wold at K (step 1)
   size_t fused = 0;
+  int map_id = 0;
   {
     std::unique_lock lock(map_.mutex());
-    if (current->bad || loop->bad) {
-      std::lock_guard s(stats_mutex_);
-      ++stats_.loops_skipped;
-      return false;
-    }
+    if (current->bad || loop->bad) return skipped();
+    map_id = loop->map_id;
     map::updateConnections(current);
     std::vector<map::Keyframe*> connected{current};
     for (map::Keyframe* nb : map::bestCovisibles(current, 0)) connected.push_back(nb);
-    std::set<uint64_t> connected_ids;
-    for (map::Keyframe* k : connected) connected_ids.insert(k->id);
-
     // Poses before any change: the essential graph's odometry edges are measured on them.
     std::map<uint64_t, SE3> old_T_w_c;
-    const std::vector<map::Keyframe*> keyframes = map_.keyframes();
-    for (map::Keyframe* k : keyframes) old_T_w_c[k->id] = k->T_w_c();
-
-    // Step 2: move K's neighbourhood (poses and points) into the loop's world.
-    C = match.T_w_c_corrected * current->T_c_w;
-    std::set<map::MapPoint*> moved;
-    for (map::Keyframe* k : connected)
-      for (map::MapPoint* p : k->points)
-        if (p != nullptr && !p->bad && moved.insert(p).second) p->position = C * p->position;
-    for (map::Keyframe* k : connected) k->T_c_w = (C * old_T_w_c[k->id]).inverse();
-
-    // Fuse: K's matched points become the loop's; the loop group's points are fused into K's
-    // neighbourhood.
+    for (map::Keyframe* k : map_.keyframes()) old_T_w_c[k->id] = k->T_w_c();
     std::map<uint64_t, std::set<uint64_t>> links_before;
     for (map::Keyframe* k : connected)
       for (auto& [id, entry] : k->connection_weights) links_before[k->id].insert(id);
-    for (size_t i = 0; i < match.matched_points.size(); ++i) {
-      map::MapPoint* loop_point = match.matched_points[i];
-      if (loop_point == nullptr || loop_point->bad) continue;
-      map::MapPoint* own = current->points[i];
-      if (own == loop_point) continue;
-      if (own != nullptr && !own->bad) {
-        map::replacePoint(map_, own, loop_point);
-        ++fused;
-      } else if (loop_point->observations.count(current->id) == 0) {
-        map::addObservation(loop_point, current, static_cast<int>(i));
-        map::updateDescriptor(loop_point);
-        ++fused;
-      }
-    }
-    std::vector<map::MapPoint*> loop_points;
-    {
-      std::set<map::MapPoint*> unique;
-      std::vector<map::Keyframe*> group{loop};
-      for (map::Keyframe* nb : map::bestCovisibles(loop, options_.loop.group_size)) group.push_back(nb);
-      for (map::Keyframe* g : group)
-        for (map::MapPoint* p : g->points)
-          if (p != nullptr && !p->bad && unique.insert(p).second) loop_points.push_back(p);
-    }
-    matching::MatcherOptions matcher;
-    matcher.bf = bf_;
-    for (map::Keyframe* k : connected)
-      fused += static_cast<size_t>(matching::fuseIntoKeyframe(map_, k, loop_points, camera_, kFuseRadiusPx, matcher));
-    for (map::Keyframe* k : connected) {
-      for (map::MapPoint* p : k->points)
-        if (p != nullptr && !p->bad) map::updateNormalAndDepth(p);
-      map::updateConnections(k);
-    }
-    // New links from K's neighbourhood to keyframes outside it are the loop's edges.
-    bool linked_to_loop = false;
-    for (map::Keyframe* k : connected)
-      for (auto& [id, entry] : k->connection_weights) {
-        if (connected_ids.count(id) != 0 || links_before[k->id].count(id) != 0) continue;
-        loop_edges_.emplace_back(k, entry.first);
-        linked_to_loop = linked_to_loop || entry.first == loop;
-      }
-    if (!linked_to_loop) loop_edges_.emplace_back(current, loop);
 
-    // Essential graph over every good keyframe.
-    std::map<uint64_t, int> index;
-    for (map::Keyframe* k : map_.keyframes()) {
-      index[k->id] = static_cast<int>(graph_keyframes.size());
-      graph_keyframes.push_back(k);
-      snapshot_T_c_w[k->id] = k->T_c_w;
-      nodes.push_back({k->T_w_c(), k == loop});
-      newest_in_graph = std::max(newest_in_graph, k->id);
-    }
-    auto oldRelative = [&](map::Keyframe* a, map::Keyframe* b) {
-      auto ia = old_T_w_c.find(a->id), ib = old_T_w_c.find(b->id);
-      // Keyframes created while this ran have no "old" pose: their present one is it.
-      const SE3 Ta = ia != old_T_w_c.end() ? ia->second : a->T_w_c();
-      const SE3 Tb = ib != old_T_w_c.end() ? ib->second : b->T_w_c();
-      return Ta.inverse() * Tb;
-    };
-    std::set<std::pair<int, int>> added;
-    auto addEdge = [&](map::Keyframe* a, map::Keyframe* b, const SE3& T_a_b) {
-      auto ia = index.find(a->id), ib = index.find(b->id);
-      if (ia == index.end() || ib == index.end() || ia->second == ib->second) return;
-      const auto key = std::minmax(ia->second, ib->second);
-      if (!added.insert(key).second) return;
-      edges.push_back({ia->second, ib->second, T_a_b, 1.0});
-    };
-    // Loop edges first (measured on the corrected poses) so they win over odometry duplicates.
-    for (auto& [a, b] : loop_edges_)
-      if (!a->bad && !b->bad) addEdge(a, b, a->T_w_c().inverse() * b->T_w_c());
-    for (map::Keyframe* k : graph_keyframes) {
-      if (k->parent != nullptr && !k->parent->bad) addEdge(k->parent, k, oldRelative(k->parent, k));
-      for (map::Keyframe* nb : map::covisiblesWithWeight(k, options_.loop.strong_covisibility_weight))
-        if (nb->id < k->id) addEdge(nb, k, oldRelative(nb, k));
-    }
+    C = correctNeighbourhood(match, connected, old_T_w_c);      // 1. K's neighbourhood into L's world
+    fused = replaceDuplicatedPoints(match, connected);           // 2. one point per place
+    updateLoopConnections(match, connected, links_before);       // 3. covisibility, loop edges
+    graph = buildEssentialGraph(loop, old_T_w_c);                // 4. pose graph input
   }
+  newest_in_graph = graph.newest;
 
-  // Step 3: pose graph on copies; tracking goes on meanwhile.
+  // 5. Pose graph on copies; tracking goes on meanwhile.
   const auto graph_start = Clock::now();
   optim::PoseGraphOptions graph_options;
   graph_options.iterations = options_.loop.pose_graph_iterations;
-  const optim::PoseGraphSummary summary = optim::optimizePoseGraph(nodes, edges, graph_options);
+  const optim::PoseGraphSummary summary = optim::optimizePoseGraph(graph.nodes, graph.edges, graph_options);
   const double graph_ms = msSince(graph_start);
 
-  // Step 4: write back; points follow their reference keyframe.
+  // 6. Write back; points follow their reference keyframe.
   SE3 current_correction;
   {
     std::unique_lock lock(map_.mutex());
-    std::map<uint64_t, SE3> correction;  // keyframe id -> T_wnew_wsnapshot
-    for (size_t i = 0; i < graph_keyframes.size(); ++i) {
-      map::Keyframe* k = graph_keyframes[i];
-      const SE3 D = summary.usable ? nodes[i].T_w_c * snapshot_T_c_w[k->id] : SE3();
-      correction[k->id] = D;
-      if (!k->bad) k->T_c_w = (D * k->T_w_c()).inverse();
-    }
-    current_correction = correction.count(current->id) ? correction[current->id] : SE3();
-    // Keyframes tracking made while this ran were placed in the old world.
-    for (map::Keyframe* k : map_.keyframes()) {
-      if (correction.count(k->id) != 0) continue;
-      const SE3 D = current_correction * C;
-      correction[k->id] = D;
-      k->T_c_w = (D * k->T_w_c()).inverse();
-    }
-    for (map::MapPoint* p : map_.points()) {
-      const map::Keyframe* ref = p->reference;
-      auto it = ref != nullptr ? correction.find(ref->id) : correction.end();
-      if (it == correction.end()) {
-        for (auto& [kid, obs] : p->observations) {
-          it = correction.find(kid);
-          if (it != correction.end()) break;
-        }
-      }
-      if (it == correction.end()) continue;
-      p->position = it->second * p->position;
-      map::updateNormalAndDepth(p);
-    }
+    current_correction = applyPoseGraph(graph, summary.usable, current, map_id, C);
   }
   detector_.loopClosed(current->id);
   {
     std::lock_guard s(stats_mutex_);
     ++stats_.loops_closed;
     stats_.closed.push_back({current->id, loop->id, current->timestamp, loop->timestamp, match.inliers,
-                             C.translation().norm(), C.rotationAngle() * 180.0 / M_PI});
+                             C.translation().norm(), C.rotationAngle() * 180.0 / M_PI, detected.merge});
     stats_.points_fused += fused;
     stats_.pose_graph_ms.push_back(graph_ms);
     stats_.correction_ms.push_back(msSince(start));
     stats_.detection = detector_.stats();
   }
-  notify({LoopEvent::Kind::kLoopCorrected, current->id, loop->id, current_correction * C});
+  notify({detected.merge ? LoopEvent::Kind::kMapsMerged : LoopEvent::Kind::kLoopCorrected, current->id, loop->id,
+          current_correction * C});
   return true;
 }
 
@@ -334,9 +360,9 @@ void LoopCloser::runGlobalBa(uint64_t newest_keyframe) {
   optim::MapBaProblem problem;
   {
     std::shared_lock lock(map_.mutex());
-    const std::vector<map::Keyframe*> all = map_.keyframes();  // by id: the map's origin first
-    std::vector<bool> fixed(all.size(), false);
-    if (!fixed.empty()) fixed[0] = true;
+    const std::vector<map::Keyframe*> all = map_.keyframes();
+    // Each map of the atlas holds its own gauge: its origin keyframe stays fixed.
+    const std::vector<bool> fixed = map::originsFixed(all);
     problem = optim::buildMapBaProblem(all, fixed);
   }
   const std::vector<map::Keyframe*>& keyframes = problem.keyframes;

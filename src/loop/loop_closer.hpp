@@ -1,22 +1,30 @@
-// Loop closing: detection (loop/loop_detector.hpp), correction, global bundle adjustment.
+// Loop closing and map merging: detection (loop/loop_detector.hpp), correction, global bundle
+// adjustment.
 //
-// Correction of a detected loop (current keyframe K, loop keyframe L, K's pose in L's world):
+// Correction of a detected loop (current keyframe K, loop keyframe L, K's pose in L's world),
+// named steps that a merge of two atlas maps shares (LoopCloser::applyLoopCorrection):
+//  0. merges only (L in another map): mergeMaps moves the younger map, every keyframe and point,
+//     into the older one's world by the rigid transform recognition found, and relabels it
+//     (tracking waits on Map::worldGate() meanwhile); then the maps are one and the steps below
+//     run as for a loop;
 //  1. local mapping is paused (MappingPause) and a running global BA is aborted;
-//  2. write section: K and its covisible neighbours move by the loop's world correction, with
-//     their map points; K's matched points are fused with L's (replacePoint), L's group's points
-//     are fused into K's neighbourhood by projection; new covisibility links become loop edges;
-//  3. unlocked: pose-graph optimisation (optim/pose_graph.hpp) over the essential graph
-//     (spanning tree, covisibility >= loop.strong_covisibility_weight, loop edges), L fixed;
-//  4. write section: optimised poses; every map point moves with its reference keyframe's
-//     correction; keyframes tracking created meanwhile move with K's correction;
+//  2. write section: correctNeighbourhood (K and its covisible neighbours move by the loop's
+//     world correction, with their points), replaceDuplicatedPoints (K's matched points become
+//     L's, L's group's points are fused into K's neighbourhood by projection),
+//     updateLoopConnections (new covisibility links become loop edges), buildEssentialGraph;
+//  3. unlocked: pose-graph optimisation (optim/pose_graph.hpp) over the essential graph of L's
+//     map (spanning tree, covisibility >= loop.strong_covisibility_weight, loop edges), L fixed;
+//  4. write section (applyPoseGraph): optimised poses; every map point moves with its reference
+//     keyframe's correction; keyframes tracking created meanwhile move with K's correction;
 //  5. local mapping resumes; a global BA starts in its own thread (abortable by a newer loop), its
-//     result applied in a final write section with local mapping paused again.
-// Tracking is blocked only by the write sections (the Map lock held exclusively); the pose graph
-// and the global BA are solved on copies.
+//     result applied in a final write section with local mapping paused again. Every map's
+//     origin keyframe holds that map's gauge.
+// Tracking is blocked only by the write sections (the Map lock held exclusively) and, for a
+// merge, by the rigid move; the pose graph and the global BA are solved on copies.
 //
-// Lock order: correction mutex (LoopCloser internal) -> MappingPause -> Map::mutex() ->
-// KeyframeDatabase's mutex. The local-mapping thread takes MappingPause then the Map lock, so
-// the order is the same everywhere.
+// Lock order: correction mutex (LoopCloser internal) -> MappingPause -> Map::worldGate() ->
+// Map::mutex() -> KeyframeDatabase's mutex. The local-mapping thread takes MappingPause then the
+// Map lock; tracking takes the world gate (shared, for a whole frame) then the Map lock.
 #pragma once
 
 #include <atomic>
@@ -27,41 +35,20 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <thread>
 #include <vector>
 
 #include "core/bounded_queue.hpp"
 #include "core/camera.hpp"
 #include "core/options.hpp"
-#include "loop/keyframe_database.hpp"
+#include "place/keyframe_database.hpp"
 #include "loop/loop_detector.hpp"
 #include "map/map.hpp"
+#include "optim/pose_graph.hpp"
+#include "mapping/mapping_pause.hpp"
 
 namespace desslam::loop {
-
-// Lets the loop closer stop local mapping between keyframes. The local-mapping thread brackets
-// each keyframe with enter()/leave(); pause() returns once no keyframe is being processed and
-// keeps enter() waiting until resume(). Pauses nest (a counter). Thread-safe (own mutex).
-class MappingPause {
- public:
-  // -- local-mapping side --
-  void enter();  // blocks while paused
-  void leave();
-  // Set to true by pause() (e.g. LocalMappingThread's abort_ba_, so a running local BA yields).
-  void setAbortFlag(std::atomic<bool>* flag);
-
-  // -- loop-closing side --
-  void pause();   // blocks until local mapping is between keyframes
-  void resume();
-  bool paused() const;
-
- private:
-  mutable std::mutex mutex_;
-  std::condition_variable cv_;
-  int pausers_ = 0;
-  bool working_ = false;
-  std::atomic<bool>* abort_flag_ = nullptr;
-};
 
 // One corrected loop, for the report (check it against ground truth by the timestamps).
 struct ClosedLoop {
@@ -69,6 +56,16 @@ struct ClosedLoop {
   double current_timestamp = 0, loop_timestamp = 0;
   int inliers = 0;
   double correction_m = 0, correction_deg = 0;  // the drift the loop implied at the current keyframe
+  bool merge = false;                           // closed across two maps of the atlas (after merging them)
+};
+
+// Two maps of the atlas made one: every keyframe and point of from_map moved by T_into_from.
+struct MergedMaps {
+  int from_map = 0, into_map = 0;
+  SE3 T_into_from;
+  uint64_t current_keyframe = 0, loop_keyframe = 0;
+  double timestamp = 0;  // the current keyframe's
+  int inliers = 0;
 };
 
 struct LoopClosingStats {
@@ -81,6 +78,7 @@ struct LoopClosingStats {
   size_t global_ba_aborted = 0;
   std::vector<double> correction_ms, pose_graph_ms, global_ba_ms;
   std::vector<ClosedLoop> closed;
+  std::vector<MergedMaps> merges;
   LoopDetectionStats detection;
 };
 
@@ -88,7 +86,7 @@ struct LoopClosingStats {
 // the loop-closing or the global-BA thread, with the Map lock released (a listener may take it)
 // but local mapping still paused, so keep it short (e.g. queue the poses for the dense thread).
 struct LoopEvent {
-  enum class Kind { kLoopCorrected, kGlobalBaApplied } kind = Kind::kLoopCorrected;
+  enum class Kind { kLoopCorrected, kMapsMerged, kGlobalBaApplied } kind = Kind::kLoopCorrected;
   uint64_t current_keyframe = 0;  // K (for a global BA: the newest keyframe it covered)
   uint64_t loop_keyframe = 0;     // L (loops only)
   // World correction at K: T_w_new_w_old. A pose tracked in the old world (the tracker's last
@@ -102,8 +100,8 @@ class LoopCloser {
  public:
   // pause may be null (no local-mapping thread, e.g. deterministic mode where mapping runs
   // inline on the caller's thread). options.loop and options.tracking.depth_baseline are used.
-  LoopCloser(const SystemOptions& options, const PinholeCamera& camera, map::Map& map, KeyframeDatabase& database,
-             MappingPause* pause, GlobalBaMode global_ba = GlobalBaMode::kThread);
+  LoopCloser(const SystemOptions& options, const PinholeCamera& camera, map::Map& map, place::KeyframeDatabase& database,
+             mapping::MappingPause* pause, GlobalBaMode global_ba = GlobalBaMode::kThread);
   ~LoopCloser();  // aborts and joins a running global BA
 
   // Detects and, if found, closes a loop ending at kf. Returns whether a loop was closed.
@@ -118,9 +116,37 @@ class LoopCloser {
   LoopClosingStats stats() const;  // a copy, safe from any thread
 
  private:
-  // Steps 1-4 under the correction mutex and a mapping pause; newest_in_graph: the newest
+  // Loop correction and map merging, under the correction mutex and a mapping pause:
+  // (0, merges only) mergeMaps, then correctNeighbourhood, replaceDuplicatedPoints,
+  // updateLoopConnections, buildEssentialGraph (Map lock exclusive), the pose graph (no lock),
+  // applyPoseGraph (exclusive); the caller then starts the global BA. newest_in_graph: the newest
   // keyframe the pose graph covered. False when K or L was culled meanwhile.
   bool applyLoopCorrection(const LoopMatch& match, uint64_t& newest_in_graph);
+
+  struct EssentialGraph {
+    std::vector<optim::PoseGraphNode> nodes;
+    std::vector<optim::PoseGraphEdge> edges;
+    std::vector<map::Keyframe*> keyframes;   // per node
+    std::map<uint64_t, SE3> snapshot_T_c_w;  // poses the pose graph starts from
+    uint64_t newest = 0;
+  };
+  // Moves the younger of the two maps into the older one's world (World gate and Map lock
+  // exclusive, taken here); sets match.T_w_c_corrected to K's pose in the merged world.
+  bool mergeMaps(LoopMatch& match);
+  // The steps below need the Map lock held exclusively.
+  // Moves K's covisible neighbourhood (poses, points) by the loop's correction; returns it (T_wnew_wold).
+  SE3 correctNeighbourhood(const LoopMatch& match, const std::vector<map::Keyframe*>& connected,
+                           const std::map<uint64_t, SE3>& old_T_w_c);
+  // K's matched points replaced by the loop's; the loop group's points fused into K's neighbourhood.
+  size_t replaceDuplicatedPoints(const LoopMatch& match, const std::vector<map::Keyframe*>& connected);
+  // Covisibility of the neighbourhood recomputed; its new links become loop edges.
+  void updateLoopConnections(const LoopMatch& match, const std::vector<map::Keyframe*>& connected,
+                             const std::map<uint64_t, std::set<uint64_t>>& links_before);
+  // Spanning tree, strong covisibility and loop edges of the loop's map (L fixed).
+  EssentialGraph buildEssentialGraph(const map::Keyframe* loop, const std::map<uint64_t, SE3>& old_T_w_c) const;
+  // Optimised poses written back, keyframes made meanwhile moved with K, points with their keyframe.
+  // Returns K's pose-graph correction.
+  SE3 applyPoseGraph(const EssentialGraph& graph, bool usable, const map::Keyframe* current, int map_id, const SE3& C);
   void startGlobalBa(uint64_t newest_keyframe);
   void runGlobalBa(uint64_t newest_keyframe);
   void abortGlobalBa();
@@ -129,7 +155,7 @@ class LoopCloser {
   SystemOptions options_;
   PinholeCamera camera_;
   map::Map& map_;
-  MappingPause* pause_;
+  mapping::MappingPause* pause_;
   GlobalBaMode global_ba_mode_;
   double bf_;
   LoopDetector detector_;

@@ -40,9 +40,10 @@ RigidRansacOptions ransacOptions(const LoopOptions& o) {
 }  // namespace
 
 LoopDetector::LoopDetector(const LoopOptions& options, const PinholeCamera& camera, map::Map& map,
-                           KeyframeDatabase& database)
-    : options_(options), camera_(camera), map_(map), database_(database) {
+                           place::KeyframeDatabase& database, const AtlasOptions& atlas)
+    : options_(options), atlas_(atlas), camera_(camera), map_(map), database_(database) {
   options_.validate();
+  atlas_.validate();
 }
 
 void LoopDetector::loopClosed(uint64_t kf_id) {
@@ -51,8 +52,8 @@ void LoopDetector::loopClosed(uint64_t kf_id) {
   groups_.clear();
 }
 
-BowEncoding LoopDetector::encodingOf(map::Keyframe* kf) {
-  BowEncoding e;
+place::BowEncoding LoopDetector::encodingOf(map::Keyframe* kf) {
+  place::BowEncoding e;
   auto bow = database_.bowVector(kf->id);
   auto features = database_.featureVector(kf->id);
   if (bow && features) {
@@ -68,16 +69,22 @@ BowEncoding LoopDetector::encodingOf(map::Keyframe* kf) {
 std::optional<LoopMatch> LoopDetector::detect(map::Keyframe* kf) {
   std::shared_lock lock(map_.mutex());
   if (kf == nullptr || kf->bad) return std::nullopt;
-  const BowEncoding encoding = encodingOf(kf);
+  const place::BowEncoding encoding = encodingOf(kf);
   ++stats_.keyframes_checked;
+  // Loops within a map wait for min_keyframes_between_loops (at the start, after a loop); merges
+  // with another map do not.
   const uint64_t spacing = static_cast<uint64_t>(options_.min_keyframes_between_loops);
-  if (kf->id < spacing || (had_loop_ && kf->id < last_loop_keyframe_ + spacing)) return std::nullopt;
+  const bool loops_allowed = !(kf->id < spacing || (had_loop_ && kf->id < last_loop_keyframe_ + spacing));
 
-  const std::vector<map::Keyframe*> candidates = consistentCandidates(kf, encoding.bow);
+  std::vector<map::Keyframe*> candidates = consistentCandidates(kf, encoding.bow);
+  if (!loops_allowed)
+    std::erase_if(candidates, [&](const map::Keyframe* c) { return c->map_id == kf->map_id; });
   stats_.consistent_candidates += candidates.size();
   for (map::Keyframe* candidate : candidates) {
     if (auto match = verify(kf, candidate, encoding.features)) {
+      match->merge = candidate->map_id != kf->map_id;
       ++stats_.loops_detected;
+      if (match->merge) ++stats_.merges_detected;
       return match;
     }
     ++stats_.rejected_geometry;
@@ -85,25 +92,28 @@ std::optional<LoopMatch> LoopDetector::detect(map::Keyframe* kf) {
   return std::nullopt;
 }
 
-std::vector<map::Keyframe*> LoopDetector::consistentCandidates(map::Keyframe* kf, const BowVector& bow) {
+std::vector<map::Keyframe*> LoopDetector::consistentCandidates(map::Keyframe* kf, const place::BowVector& bow) {
   const std::vector<map::Keyframe*> neighbours = map::bestCovisibles(kf, 0);
-  if (neighbours.empty()) return {};
+  const bool other_maps = map_.mapRecords().size() > 1;
+  if (neighbours.empty() && !other_maps) return {};
   std::set<uint64_t> excluded{kf->id};
   double min_score = 1.0;
   for (map::Keyframe* nb : neighbours) {
     excluded.insert(nb->id);
     auto nb_bow = database_.bowVector(nb->id);
-    const double s = nb_bow ? Vocabulary::score(bow, *nb_bow)
-                            : Vocabulary::score(bow, database_.encode(*nb->features, nb->status).bow);
+    const double s = nb_bow ? place::Vocabulary::score(bow, *nb_bow)
+                            : place::Vocabulary::score(bow, database_.encode(*nb->features, nb->status).bow);
     min_score = std::min(min_score, s);
   }
 
-  BowQueryOptions query;
+  place::BowQueryOptions query;
   query.filter = [&excluded](uint64_t id) { return excluded.count(id) == 0; };
   std::map<uint64_t, double> scores;  // candidates at or above the neighbours' lowest score
   std::map<uint64_t, map::Keyframe*> by_id;
-  for (const KeyframeCandidate& c : database_.query(bow, query)) {
-    if (c.keyframe->bad || c.score < min_score) continue;
+  for (const place::KeyframeCandidate& c : database_.query(bow, query)) {
+    // A young map's own keyframes may not pass the floor (neighbours.empty(): no floor at all).
+    const bool same_map = c.keyframe->map_id == kf->map_id;
+    if (c.keyframe->bad || (same_map && (neighbours.empty() || c.score < min_score))) continue;
     scores[c.keyframe->id] = c.score;
     by_id[c.keyframe->id] = c.keyframe;
   }
@@ -158,7 +168,9 @@ std::vector<map::Keyframe*> LoopDetector::consistentCandidates(map::Keyframe* kf
     }
     group.count = streak;
     next_groups.push_back(std::move(group));
-    if (streak >= options_.min_consistent_keyframes &&
+    const int needed = candidate->map_id == kf->map_id ? options_.min_consistent_keyframes
+                                                       : atlas_.merge_min_consistent_keyframes;
+    if (streak >= needed &&
         static_cast<int>(consistent.size()) < options_.max_candidates)
       consistent.push_back(candidate);
   }
@@ -170,7 +182,7 @@ std::vector<map::Keyframe*> LoopDetector::consistentCandidates(map::Keyframe* kf
 }
 
 std::optional<LoopMatch> LoopDetector::verify(map::Keyframe* kf, map::Keyframe* candidate,
-                                              const FeatureVector& kf_features) {
+                                              const place::FeatureVector& kf_features) {
   if (candidate->bad) return std::nullopt;
   auto candidate_features = database_.featureVector(candidate->id);
   if (!candidate_features) candidate_features = database_.encode(*candidate->features, candidate->status).features;
@@ -179,7 +191,7 @@ std::optional<LoopMatch> LoopDetector::verify(map::Keyframe* kf, map::Keyframe* 
 
   // 1. Descriptor matches within shared vocabulary nodes: kf feature -> candidate map point.
   std::map<int, std::pair<int, int>> best_for_point;  // candidate feature -> (kf feature, distance)
-  forEachSharedNode(kf_features, *candidate_features, [&](NodeId, const std::vector<int>& rows_a,
+  place::forEachSharedNode(kf_features, *candidate_features, [&](place::NodeId, const std::vector<int>& rows_a,
                                                             const std::vector<int>& rows_b) {
     for (int ia : rows_a) {
       if (!kf->usable(ia)) continue;

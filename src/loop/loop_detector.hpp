@@ -4,6 +4,9 @@
 //  2. candidates grouped with their best covisible keyframes; weak groups dropped;
 //  3. a group must recur over `min_consistent_keyframes` consecutive keyframes (groups linked
 //     by sharing a keyframe);
+//     candidates in another map of the atlas (a merge) skip step 1's score floor (a young map's
+//     few neighbours look alike) and need atlas.merge_min_consistent_keyframes; the geometric
+//     check below is the same;
 //  4. descriptor matches (within vocabulary nodes) between the keyframe's features and the
 //     candidate's map points, rigid SE(3) RANSAC on 3-D-3-D pairs (depth gives the scale),
 //     guided search by projection of the candidate group's points, refit.
@@ -21,7 +24,7 @@
 #include "core/camera.hpp"
 #include "core/options.hpp"
 #include "core/se3.hpp"
-#include "loop/keyframe_database.hpp"
+#include "place/keyframe_database.hpp"
 #include "map/map.hpp"
 
 namespace desslam::loop {
@@ -35,6 +38,7 @@ struct LoopMatch {
   std::vector<map::MapPoint*> matched_points;
   int ransac_inliers = 0;  // from descriptor matching alone
   int inliers = 0;         // after guided search and refit
+  bool merge = false;      // the loop keyframe lies in another map of the atlas
 };
 
 struct LoopDetectionStats {
@@ -42,11 +46,13 @@ struct LoopDetectionStats {
   size_t consistent_candidates = 0;  // candidates that passed the consistency test
   size_t rejected_geometry = 0;      // ... but failed RANSAC or the guided search
   size_t loops_detected = 0;
+  size_t merges_detected = 0;        // of those, in another map
 };
 
 class LoopDetector {
  public:
-  LoopDetector(const LoopOptions& options, const PinholeCamera& camera, map::Map& map, KeyframeDatabase& database);
+  LoopDetector(const LoopOptions& options, const PinholeCamera& camera, map::Map& map, place::KeyframeDatabase& database,
+               const AtlasOptions& atlas = {});
 
   // Checks one keyframe (in keyframe order). Adds it to the database when it is not there yet
   // (local mapping normally has). Returns a verified loop, or nothing.
@@ -63,14 +69,15 @@ class LoopDetector {
     int count = 0;  // consecutive keyframes this group was a candidate in
   };
 
-  std::vector<map::Keyframe*> consistentCandidates(map::Keyframe* kf, const BowVector& bow);
-  std::optional<LoopMatch> verify(map::Keyframe* kf, map::Keyframe* candidate, const FeatureVector& kf_features);
-  BowEncoding encodingOf(map::Keyframe* kf);
+  std::vector<map::Keyframe*> consistentCandidates(map::Keyframe* kf, const place::BowVector& bow);
+  std::optional<LoopMatch> verify(map::Keyframe* kf, map::Keyframe* candidate, const place::FeatureVector& kf_features);
+  place::BowEncoding encodingOf(map::Keyframe* kf);
 
   LoopOptions options_;
+  AtlasOptions atlas_;
   PinholeCamera camera_;
   map::Map& map_;
-  KeyframeDatabase& database_;
+  place::KeyframeDatabase& database_;
   std::vector<ConsistentGroup> groups_;
   uint64_t last_loop_keyframe_ = 0;
   bool had_loop_ = false;

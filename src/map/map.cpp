@@ -9,20 +9,89 @@ namespace desslam::map {
 
 Keyframe* Map::createKeyframe(uint64_t frame_id, Timestamp timestamp, std::string image_name,
                               std::shared_ptr<const FeatureSet> features, std::vector<FeatureStatus> status,
-                              cv::Mat half_depth, const SE3& T_c_w) {
+                              cv::Mat half_depth, const SE3& T_c_w, int map_id) {
   const uint64_t id = next_keyframe_id_++;
   auto kf = std::make_unique<Keyframe>(id, frame_id, timestamp, std::move(image_name), std::move(features),
                                        std::move(status), std::move(half_depth), T_c_w);
   Keyframe* raw = kf.get();
+  raw->map_id = liveMap(map_id);
+  recordOf(raw->map_id);
+  raw->map_origin = keyframes_created_per_map_[raw->map_id]++ == 0;
   keyframes_.emplace(id, std::move(kf));
   ++good_keyframes_;
+  ++good_keyframes_per_map_[raw->map_id];
   return raw;
+}
+
+MapRecord& Map::recordOf(int map_id) {
+  auto it = maps_.find(map_id);
+  if (it == maps_.end()) {
+    MapRecord record;
+    record.id = map_id;
+    record.reason = "implicit";
+    it = maps_.emplace(map_id, record).first;
+    next_map_id_ = std::max(next_map_id_, map_id + 1);
+  }
+  return it->second;
+}
+
+int Map::createMap(uint64_t first_frame_id, Timestamp start_time, std::string reason) {
+  const int id = next_map_id_++;
+  MapRecord& record = recordOf(id);
+  record.first_frame_id = first_frame_id;
+  record.start_time = start_time;
+  record.reason = std::move(reason);
+  return id;
+}
+
+int Map::liveMap(int map_id) const {
+  for (auto it = maps_.find(map_id); it != maps_.end() && it->second.merged_into >= 0;
+       it = maps_.find(it->second.merged_into))
+    map_id = it->second.merged_into;
+  return map_id;
+}
+
+size_t Map::keyframeCount(int map_id) const {
+  auto it = good_keyframes_per_map_.find(map_id);
+  return it == good_keyframes_per_map_.end() ? 0 : it->second;
+}
+
+std::vector<MapRecord> Map::mapRecords() const {
+  std::vector<MapRecord> out;
+  for (const auto& [id, record] : maps_) out.push_back(record);
+  return out;
+}
+
+void Map::mergeMap(int from, int into, const SE3& T_into_from, Timestamp merged_at) {
+  from = liveMap(from);
+  into = liveMap(into);
+  if (from == into) return;
+  const SE3 T_from_into = T_into_from.inverse();
+  for (auto& [id, kf] : keyframes_) {
+    if (kf->map_id != from) continue;
+    kf->T_c_w = kf->T_c_w * T_from_into;  // culled ones follow their parent; keep them consistent too
+    kf->map_id = into;
+    kf->map_origin = false;
+  }
+  for (auto& [id, p] : points_) {
+    if (p->map_id != from) continue;
+    p->position = T_into_from * p->position;
+    p->map_id = into;
+  }
+  good_keyframes_per_map_[into] += good_keyframes_per_map_[from];
+  good_keyframes_per_map_[from] = 0;
+  MapRecord& record = recordOf(from);
+  record.merged_into = into;
+  record.T_into_this = T_into_from;
+  record.merged_at = merged_at;
+  ++merge_count_;
 }
 
 MapPoint* Map::createPoint(const Vec3& position, Keyframe* reference) {
   const uint64_t id = next_point_id_++;
   auto point = std::make_unique<MapPoint>(id, position, reference, reference != nullptr ? reference->id : 0);
   MapPoint* raw = point.get();
+  if (reference != nullptr) raw->map_id = reference->map_id;
   points_.emplace(id, std::move(point));
   ++good_points_;
   return raw;
@@ -40,7 +109,7 @@ void Map::setPointBad(MapPoint* point) {
 }
 
 void Map::setKeyframeBad(Keyframe* kf) {
-  if (kf->bad || kf->id == 0) return;  // the first keyframe anchors the map
+  if (kf->bad || kf->map_origin) return;  // the first keyframe anchors its map
   for (auto& [id, entry] : kf->connection_weights) {
     Keyframe* other = entry.first;
     other->connection_weights.erase(kf->id);
@@ -79,6 +148,7 @@ void Map::setKeyframeBad(Keyframe* kf) {
   }
   kf->bad = true;
   --good_keyframes_;
+  --good_keyframes_per_map_[kf->map_id];
 }
 
 std::vector<Keyframe*> Map::keyframes() const {
@@ -278,6 +348,14 @@ int predictLevel(const MapPoint* point, double distance, const feature::ScalePyr
 SE3 keyframeTcw(const Keyframe* kf) {
   if (!kf->bad || kf->parent == nullptr) return kf->T_c_w;
   return kf->T_c_parent * keyframeTcw(kf->parent);
+}
+
+std::vector<bool> originsFixed(const std::vector<Keyframe*>& keyframes) {
+  std::vector<bool> fixed(keyframes.size(), false);
+  bool any = false;
+  for (size_t i = 0; i < keyframes.size(); ++i) any = (fixed[i] = keyframes[i]->map_origin) || any;
+  if (!any && !fixed.empty()) fixed[0] = true;
+  return fixed;
 }
 
 }  // namespace desslam::map

@@ -40,6 +40,7 @@ class MapPoint {
   std::map<uint64_t, std::pair<Keyframe*, int>> observations;  // keyframe id -> (keyframe, feature)
   bool bad = false;
   MapPoint* replaced_by = nullptr;  // set when fused into another point
+  int map_id = 0;                   // atlas map it belongs to (its reference keyframe's; merges relabel)
 
   // Tracking statistics (atomic: tracking updates them under the shared lock).
   std::atomic<int> visible{1};  // frames in whose frustum it was
@@ -81,6 +82,8 @@ class Keyframe {
   bool bad = false;
   SE3 T_c_parent;                                 // set when culled: its pose follows the parent's
   bool not_erase = false;                         // protected from culling (e.g. while loop closing uses it)
+  int map_id = 0;                                 // atlas map it belongs to (merges relabel it)
+  bool map_origin = false;                        // first keyframe of its map: holds the gauge, never culled
 
   bool usable(size_t i) const { return status[i] == FeatureStatus::kStatic; }
   SE3 T_w_c() const { return T_c_w.inverse(); }

@@ -52,7 +52,7 @@ Vec3 triangulate(const Vec3& xn1, const Vec3& xn2, const SE3& T1, const SE3& T2)
 }  // namespace
 
 LocalMapper::LocalMapper(const SystemOptions& options, const PinholeCamera& camera, map::Map& map,
-                         loop::KeyframeDatabase* database)
+                         place::KeyframeDatabase* database)
     : options_(options), camera_(camera), map_(map), database_(database), bf_(camera.fx() * options.tracking.depth_baseline) {
   matcher_options_.bf = bf_;
 }
@@ -289,7 +289,7 @@ void LocalMapper::localBundleAdjustment(map::Keyframe* kf, const std::atomic<boo
       keyframes.push_back(fkf);
     }
     std::vector<bool> is_fixed(keyframes.size());
-    for (size_t i = 0; i < keyframes.size(); ++i) is_fixed[i] = i >= local_count || keyframes[i]->id == 0;
+    for (size_t i = 0; i < keyframes.size(); ++i) is_fixed[i] = i >= local_count || keyframes[i]->map_origin;
     // With nothing fixed (early map) the oldest keyframe holds the gauge.
     if (std::none_of(is_fixed.begin(), is_fixed.end(), [](bool f) { return f; })) {
       auto oldest = std::min_element(keyframes.begin(), keyframes.end(),
@@ -315,7 +315,7 @@ void LocalMapper::localBundleAdjustment(map::Keyframe* kf, const std::atomic<boo
 void LocalMapper::cullRedundantKeyframes(map::Keyframe* kf) {
   std::unique_lock lock(map_.mutex());
   for (map::Keyframe* candidate : map::bestCovisibles(kf, 0)) {
-    if (candidate->id == 0 || candidate->bad || candidate->not_erase) continue;
+    if (candidate->map_origin || candidate->bad || candidate->not_erase) continue;
     const map::FeatureSet& f = *candidate->features;
     int considered = 0, redundant = 0;
     for (size_t i = 0; i < candidate->points.size(); ++i) {
@@ -342,7 +342,7 @@ void LocalMapper::cullRedundantKeyframes(map::Keyframe* kf) {
   }
 }
 
-LocalMappingThread::LocalMappingThread(LocalMapper& mapper, loop::MappingPause* pause,
+LocalMappingThread::LocalMappingThread(LocalMapper& mapper, MappingPause* pause,
                                        std::function<void(map::Keyframe*)> on_processed)
     : mapper_(mapper), pause_(pause), on_processed_(std::move(on_processed)), worker_([this] { run(); }) {
   if (pause_ != nullptr) pause_->setAbortFlag(&abort_ba_);

@@ -18,8 +18,8 @@
 #include "core/bounded_queue.hpp"
 #include "core/camera.hpp"
 #include "core/options.hpp"
-#include "loop/keyframe_database.hpp"
-#include "loop/loop_closer.hpp"
+#include "place/keyframe_database.hpp"
+#include "mapping/mapping_pause.hpp"
 #include "map/map.hpp"
 #include "matching/matcher.hpp"
 
@@ -41,7 +41,7 @@ class LocalMapper {
   // database (may be null): the keyframe BoW database kept in step with the map (keyframes added
   // after insertion, removed when culled) for relocalisation and loop detection.
   LocalMapper(const SystemOptions& options, const PinholeCamera& camera, map::Map& map,
-              loop::KeyframeDatabase* database = nullptr);
+              place::KeyframeDatabase* database = nullptr);
 
   // abort_ba (may be null) stops bundle adjustment early when set (a newer keyframe is waiting).
   void process(map::Keyframe* kf, const std::atomic<bool>* abort_ba);
@@ -58,7 +58,7 @@ class LocalMapper {
   SystemOptions options_;
   PinholeCamera camera_;
   map::Map& map_;
-  loop::KeyframeDatabase* database_;
+  place::KeyframeDatabase* database_;
   double bf_;
   matching::MatcherOptions matcher_options_;
   std::vector<map::MapPoint*> recent_points_;  // created recently, still on probation
@@ -73,7 +73,7 @@ class LocalMapper {
 // keyframe after that, outside the pause (e.g. the loop-closing queue).
 class LocalMappingThread {
  public:
-  explicit LocalMappingThread(LocalMapper& mapper, loop::MappingPause* pause = nullptr,
+  explicit LocalMappingThread(LocalMapper& mapper, MappingPause* pause = nullptr,
                               std::function<void(map::Keyframe*)> on_processed = {});
   ~LocalMappingThread();
   void push(map::Keyframe* kf);
@@ -86,7 +86,7 @@ class LocalMappingThread {
  private:
   void run();
   LocalMapper& mapper_;
-  loop::MappingPause* pause_;
+  MappingPause* pause_;
   std::function<void(map::Keyframe*)> on_processed_;
   BoundedQueue<map::Keyframe*> queue_{8, QueueFullPolicy::kBlock};
   std::atomic<int> pending_{0};

@@ -67,9 +67,9 @@ GlobalBaResult globalBundleAdjustment(map::Map& map, const PinholeCamera& camera
   MapBaProblem problem;
   {
     std::shared_lock lock(map.mutex());
-    const std::vector<map::Keyframe*> keyframes = map.keyframes();  // by id: the origin first
-    std::vector<bool> fixed(keyframes.size(), false);
-    if (!fixed.empty()) fixed[0] = true;
+    const std::vector<map::Keyframe*> keyframes = map.keyframes();
+    // Each map of the atlas holds its own gauge: its origin keyframe stays fixed.
+    const std::vector<bool> fixed = map::originsFixed(keyframes);
     problem = buildMapBaProblem(keyframes, fixed);
   }
   if (problem.keyframes.size() < 2) return result;

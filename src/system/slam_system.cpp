@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <map>
 #include <mutex>
 #include <shared_mutex>
 
@@ -13,7 +14,7 @@
 #include "dense/map_export.hpp"
 #include "dense/memory_usage.hpp"
 #include "dynamic/mask_utils.hpp"
-#include "loop/vocabulary_location.hpp"
+#include "place/vocabulary_location.hpp"
 #include "optim/map_bundle_adjustment.hpp"
 #include "semantic/semantic_thread.hpp"
 #include "semantic/segmenter.hpp"
@@ -41,10 +42,10 @@ constexpr int kDynamicFeatureRadius = 12;   // pixels left out of the dense map 
 
 bool usesMask(const std::string& mode) { return mode == "semantic" || mode == "full"; }
 
-std::unique_ptr<loop::KeyframeDatabase> makeKeyframeDatabase(const SystemOptions& options) {
+std::unique_ptr<place::KeyframeDatabase> makeKeyframeDatabase(const SystemOptions& options) {
   if (!options.relocalisation.enabled && !options.loop.enabled) return nullptr;
   options.relocalisation.validate();  // names a bad key before the vocabulary is looked for
-  return std::make_unique<loop::KeyframeDatabase>(loop::loadVocabulary(options.relocalisation.vocabulary),
+  return std::make_unique<place::KeyframeDatabase>(place::loadVocabulary(options.relocalisation.vocabulary),
                                                   options.relocalisation.direct_index_level);
 }
 }  // namespace
@@ -205,6 +206,9 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   stats.stage2_removed = outcome.stage2_removed;
   stats.inliers = outcome.inliers;
   stats.motion_model = outcome.used_motion_model;
+  stats.new_map = outcome.new_map;
+  stats.timestamp = timestamp;
+  if (outcome.tracked && !tracker_.records().empty()) stats.map = tracker_.records().back().map_id;
 
   if (outcome.new_keyframe != nullptr) {
     stats.keyframe = true;
@@ -276,15 +280,88 @@ void SlamSystem::finish() {
   if (dense_) dense_->waitUntilIdle();
 }
 
+int SlamSystem::mainMapLocked() const {
+  std::map<int, size_t> frames_per_map;
+  for (const tracking::FrameRecord& r : tracker_.records())
+    if (r.reference != nullptr) ++frames_per_map[r.reference->map_id];
+  int best = -1;
+  size_t most = 0;
+  for (const auto& [id, n] : frames_per_map)  // by id: the older map wins a tie
+    if (n > most) {
+      most = n;
+      best = id;
+    }
+  return best;
+}
+
 Trajectory SlamSystem::cameraTrajectory() const {
   Trajectory trajectory;
   std::shared_lock lock(map_.mutex());
+  const int main_map = mainMapLocked();
   for (const tracking::FrameRecord& r : tracker_.records()) {
-    if (r.reference == nullptr) continue;
+    if (r.reference == nullptr || r.reference->map_id != main_map) continue;
     const SE3 T_c_w = r.T_c_r * map::keyframeTcw(r.reference);
     trajectory.push_back({r.timestamp, T_c_w.inverse()});
   }
   return trajectory;
+}
+
+AtlasTrajectory SlamSystem::cameraTrajectoryAll() const {
+  AtlasTrajectory trajectory;
+  std::shared_lock lock(map_.mutex());
+  for (const tracking::FrameRecord& r : tracker_.records()) {
+    if (r.reference == nullptr) continue;
+    const SE3 T_c_w = r.T_c_r * map::keyframeTcw(r.reference);
+    trajectory.push_back({r.timestamp, T_c_w.inverse(), r.map_id, r.reference->map_id});
+  }
+  return trajectory;
+}
+
+nlohmann::json SlamSystem::atlasJson() const {
+  std::map<int, size_t> frames_tracked_in;
+  std::map<int, std::pair<double, double>> span;  // first and last frame time per map it was tracked in
+  for (const tracking::FrameRecord& r : tracker_.records()) {
+    if (r.reference == nullptr) continue;
+    ++frames_tracked_in[r.map_id];
+    auto [it, inserted] = span.emplace(r.map_id, std::make_pair(r.timestamp, r.timestamp));
+    if (!inserted) it->second.second = r.timestamp;
+  }
+  std::shared_lock lock(map_.mutex());
+  std::map<int, size_t> keyframes_made;
+  for (const map::Keyframe* kf : map_.allKeyframes()) ++keyframes_made[kf->map_id];
+  nlohmann::json maps = nlohmann::json::array();
+  int merges = 0;
+  for (const map::MapRecord& m : map_.mapRecords()) {
+    nlohmann::json entry = {{"id", m.id},
+                            {"reason", m.reason},
+                            {"first_frame", m.first_frame_id},
+                            {"start_time", m.start_time},
+                            {"frames", frames_tracked_in[m.id]},
+                            {"keyframes", map_.keyframeCount(m.id)},
+                            {"live", m.merged_into < 0},
+                            {"merged_into", m.merged_into >= 0 ? nlohmann::json(m.merged_into) : nlohmann::json(nullptr)}};
+    if (auto it = span.find(m.id); it != span.end())
+      entry["time_span"] = {it->second.first, it->second.second};
+    if (m.merged_into >= 0) {
+      ++merges;
+      const Quat& q = m.T_into_this.quaternion();
+      const Vec3& t = m.T_into_this.translation();
+      entry["merged_at"] = m.merged_at;
+      // T_w(into)_w(this), TUM order: tx ty tz qx qy qz qw.
+      entry["T_into_this"] = {t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w()};
+    }
+    maps.push_back(entry);
+  }
+  const int main_map = mainMapLocked();
+  size_t in_main = 0;
+  for (const tracking::FrameRecord& r : tracker_.records())
+    if (r.reference != nullptr && r.reference->map_id == main_map) ++in_main;
+  return {{"maps", maps},
+          {"maps_started", tracker_.mapsStarted()},
+          {"merges", merges},
+          {"main_map", main_map},
+          {"frames_in_main_map", in_main},
+          {"initialisations_refused", tracker_.initialisationsRefused()}};
 }
 
 Trajectory SlamSystem::keyframeTrajectory() const {
@@ -335,7 +412,8 @@ nlohmann::json SlamSystem::statistics() const {
                          {"free_space_removed", f.free_space_removed},
                          {"fresh_mask", f.mask_age == 0}, {"segmentation_ms", f.segmentation_ms},
                          {"tracking_ms", f.extraction_ms + f.tracking_ms}, {"tracked", f.tracked},
-                         {"keyframe", f.keyframe}, {"inliers", f.inliers}, {"motion_model", f.motion_model}});
+                         {"keyframe", f.keyframe}, {"inliers", f.inliers}, {"motion_model", f.motion_model},
+                         {"timestamp", f.timestamp}, {"map", f.map}, {"new_map", f.new_map}});
   }
   size_t tracked = 0;
   for (const auto& r : tracker_.records())
@@ -353,6 +431,7 @@ nlohmann::json SlamSystem::statistics() const {
                    {"keyframes_created", map_.allKeyframes().size()},
                    {"map_points", map_.pointCount()}};
   }
+  j["atlas"] = atlasJson();
   j["dynamic"] = {{"mode", options_.dynamic.mode},
                   {"features_in_mask", in_mask},
                   {"features_added_outside_mask", added},
@@ -386,6 +465,7 @@ nlohmann::json SlamSystem::statistics() const {
                          {"rejected_by_geometry", ls.detection.rejected_geometry},
                          {"loops_detected", ls.loops_detected},
                          {"loops_closed", ls.loops_closed},
+                         {"merges_detected", ls.detection.merges_detected},
                          {"loops_skipped", ls.loops_skipped},
                          {"points_fused", ls.points_fused},
                          {"global_ba_runs", ls.global_ba_runs},

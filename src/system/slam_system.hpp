@@ -23,7 +23,7 @@
 #include "dynamic/mask_propagation.hpp"
 #include "feature/orb_extractor.hpp"
 #include "map/map.hpp"
-#include "loop/keyframe_database.hpp"
+#include "place/keyframe_database.hpp"
 #include "loop/loop_closer.hpp"
 #include "mapping/local_mapper.hpp"
 #include "optim/map_bundle_adjustment.hpp"
@@ -65,6 +65,9 @@ struct FrameStats {
   bool keyframe = false;
   int inliers = 0;            // map-point inliers after local-map tracking
   bool motion_model = false;  // the first estimate came from the constant-velocity prediction
+  bool new_map = false;       // the frame started a map of the atlas
+  int map = -1;               // the map it was tracked in (-1: none)
+  double timestamp = 0;
 };
 
 class SlamSystem {
@@ -81,8 +84,11 @@ class SlamSystem {
   // Waits for mapping to finish its queue and stops the threads. Idempotent.
   void finish();
 
-  // Poses of every tracked frame (world-from-camera), following the final keyframe poses.
+  // Poses (world-from-camera, following the final keyframe poses) of the frames of the main map:
+  // the map of the atlas that, after all merges, holds the most frames (the earliest on a tie).
   Trajectory cameraTrajectory() const;
+  // Every frame with a pose in any map, with its map and the map whose world the pose is in.
+  AtlasTrajectory cameraTrajectoryAll() const;
   Trajectory keyframeTrajectory() const;
   // After finish(): fuses the dense map with the final keyframe poses and writes dense_map.ply,
   // dense_map.pcd, octomap.bt and dense_map.png into out_dir. Returns counts and timings.
@@ -101,6 +107,10 @@ class SlamSystem {
   // there, appending them; returns how many were added.
   int topUpOutsideMask(const cv::Mat& gray, const cv::Mat& mask, std::vector<cv::KeyPoint>& keypoints,
                        cv::Mat& descriptors) const;
+  // The live map holding the most tracked frames (-1: none). Map lock held shared.
+  int mainMapLocked() const;
+  // The atlas for report.json: maps, merges. Map lock taken here.
+  nlohmann::json atlasJson() const;
   void pushDenseKeyframe(const map::Keyframe* kf, const map::Frame& frame, const cv::Mat& bgr,
                          const cv::Mat& labels) const;
 
@@ -112,10 +122,10 @@ class SlamSystem {
   map::Map map_;
   // Keyframe BoW database (null when relocalisation and loop closing are both off): written by
   // local mapping, read by tracking's relocaliser and the loop closer (its own lock).
-  std::unique_ptr<loop::KeyframeDatabase> keyframe_db_;
+  std::unique_ptr<place::KeyframeDatabase> keyframe_db_;
   tracking::Tracker tracker_;
   mapping::LocalMapper mapper_;
-  loop::MappingPause mapping_pause_;                         // loop closing pauses local mapping
+  mapping::MappingPause mapping_pause_;                         // loop closing pauses local mapping
   std::unique_ptr<loop::LoopCloser> loop_closer_;            // null when loop.enabled is false
   std::unique_ptr<loop::LoopClosingThread> loop_thread_;     // null when deterministic
   std::unique_ptr<mapping::LocalMappingThread> mapping_thread_;  // null when deterministic

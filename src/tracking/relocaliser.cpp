@@ -64,7 +64,7 @@ PnpResult solvePnpRansac(const std::vector<Vec3>& points_w, const std::vector<Ve
 }
 
 Relocaliser::Relocaliser(const RelocalisationOptions& options, const PinholeCamera& camera, map::Map& map,
-                         const loop::KeyframeDatabase& database, double bf)
+                         const place::KeyframeDatabase& database, double bf)
     : options_(options), camera_(camera), map_(map), database_(database), bf_(bf) {
   options_.validate();
 }
@@ -73,7 +73,7 @@ RelocalisationResult Relocaliser::relocalise(map::Frame& frame) const {
   RelocalisationResult result;
   frame.clearMatches();
   if (database_.size() == 0 || frame.features == nullptr || frame.features->size() == 0) return result;
-  const loop::BowEncoding encoding = database_.encode(*frame.features, frame.status);
+  const place::BowEncoding encoding = database_.encode(*frame.features, frame.status);
   if (encoding.bow.empty()) return result;
   const SE3 prior_T_c_w = frame.T_c_w;
 
@@ -122,13 +122,13 @@ RelocalisationResult Relocaliser::relocalise(map::Frame& frame) const {
   return result;
 }
 
-std::vector<map::Keyframe*> Relocaliser::candidates(const loop::BowVector& bow) const {
-  std::vector<loop::KeyframeCandidate> results = database_.query(bow);
+std::vector<map::Keyframe*> Relocaliser::candidates(const place::BowVector& bow) const {
+  std::vector<place::KeyframeCandidate> results = database_.query(bow);
   if (results.empty()) return {};
   int max_shared = 0;
   for (const auto& r : results) max_shared = std::max(max_shared, r.shared_words);
   const int min_shared = static_cast<int>(kMinSharedWordsRatio * max_shared);
-  std::erase_if(results, [&](const loop::KeyframeCandidate& r) { return r.shared_words < min_shared; });
+  std::erase_if(results, [&](const place::KeyframeCandidate& r) { return r.shared_words < min_shared; });
 
   struct Group {
     double score;
@@ -173,9 +173,9 @@ std::vector<map::Keyframe*> Relocaliser::candidates(const loop::BowVector& bow) 
 }
 
 std::vector<std::pair<int, map::MapPoint*>> Relocaliser::matchByNodes(const map::Frame& frame,
-                                                                      const loop::FeatureVector& frame_nodes,
+                                                                      const place::FeatureVector& frame_nodes,
                                                                       map::Keyframe* keyframe) const {
-  const std::optional<loop::FeatureVector> keyframe_nodes = database_.featureVector(keyframe->id);
+  const std::optional<place::FeatureVector> keyframe_nodes = database_.featureVector(keyframe->id);
   if (!keyframe_nodes) return {};
   std::vector<map::MapPoint*> points;
   {
@@ -187,8 +187,8 @@ std::vector<std::pair<int, map::MapPoint*>> Relocaliser::matchByNodes(const map:
   }
   std::vector<std::pair<int, int>> pairs;  // (keyframe feature, frame feature)
   std::vector<int> kf_rows, frame_rows;
-  loop::forEachSharedNode(*keyframe_nodes, frame_nodes,
-                          [&](loop::NodeId, const std::vector<int>& kf_members, const std::vector<int>& frame_members) {
+  place::forEachSharedNode(*keyframe_nodes, frame_nodes,
+                          [&](place::NodeId, const std::vector<int>& kf_members, const std::vector<int>& frame_members) {
                             kf_rows.clear();
                             frame_rows.clear();
                             for (int i : kf_members)

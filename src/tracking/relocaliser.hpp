@@ -14,7 +14,7 @@
 #include "core/camera.hpp"
 #include "core/options.hpp"
 #include "core/se3.hpp"
-#include "loop/keyframe_database.hpp"
+#include "place/keyframe_database.hpp"
 #include "map/frame.hpp"
 #include "map/map.hpp"
 
@@ -45,7 +45,7 @@ class Relocaliser {
   // bf: virtual stereo baseline times fx (tracking.depth_baseline * camera.fx) for depth residuals.
   // Validates `options` (ConfigError naming relocalisation.<key>).
   Relocaliser(const RelocalisationOptions& options, const PinholeCamera& camera, map::Map& map,
-              const loop::KeyframeDatabase& database, double bf);
+              const place::KeyframeDatabase& database, double bf);
 
   // frame.features and frame.status set (only usable features are matched). On success writes
   // frame.T_c_w and frame.matches (map-point inliers only), ready for local-map tracking; on
@@ -54,10 +54,10 @@ class Relocaliser {
   RelocalisationResult relocalise(map::Frame& frame) const;
 
  private:
-  std::vector<map::Keyframe*> candidates(const loop::BowVector& bow) const;
+  std::vector<map::Keyframe*> candidates(const place::BowVector& bow) const;
   // Descriptor matches (frame feature, map point) within shared vocabulary nodes.
   std::vector<std::pair<int, map::MapPoint*>> matchByNodes(const map::Frame& frame,
-                                                           const loop::FeatureVector& frame_nodes,
+                                                           const place::FeatureVector& frame_nodes,
                                                            map::Keyframe* keyframe) const;
   // Guided search for the candidate's and its covisible keyframes' points not matched yet.
   int searchCovisiblePoints(map::Frame& frame, map::Keyframe* keyframe, double radius_px) const;
@@ -67,7 +67,7 @@ class Relocaliser {
   RelocalisationOptions options_;
   PinholeCamera camera_;
   map::Map& map_;
-  const loop::KeyframeDatabase& database_;
+  const place::KeyframeDatabase& database_;
   double bf_;
 };
 

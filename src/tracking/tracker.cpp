@@ -1,6 +1,7 @@
 #include "tracking/tracker.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <mutex>
@@ -13,7 +14,6 @@
 namespace desslam::tracking {
 
 namespace {
-constexpr int kMinInitialPoints = 300;     // depth-backed features needed to start a map
 constexpr int kMinMotionMatches = 20;      // below: widen the window once, then give up
 constexpr int kMinMapInliersStep = 10;     // after motion-model / reference-keyframe tracking
 constexpr int kMinLocalMapInliers = 30;    // after local-map tracking
@@ -38,7 +38,7 @@ void keepUnverifiedMaskedFeaturesOut(map::Frame& frame) {
 }  // namespace
 
 Tracker::Tracker(const SystemOptions& options, const PinholeCamera& camera, map::Map& map,
-                 const loop::KeyframeDatabase* database)
+                 const place::KeyframeDatabase* database)
     : options_(options), camera_(camera), map_(map), bf_(camera.fx() * options.tracking.depth_baseline) {
   if (database != nullptr && options.relocalisation.enabled)
     relocaliser_.emplace(options.relocalisation, camera_, map_, *database, bf_);
@@ -49,15 +49,21 @@ Tracker::Tracker(const SystemOptions& options, const PinholeCamera& camera, map:
 
 TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_backlog) {
   TrackOutcome outcome;
+  // A map merge moves whole maps: it waits until this frame is done (Map::worldGate()).
+  std::shared_lock world(map_.worldGate());
   if (state_ == TrackingState::kNotInitialized) {
-    initialize(frame, outcome);
+    initialize(frame, outcome, "first");
     return outcome;
   }
 
-  // The previous frame's pose follows its reference keyframe, which local BA may have moved.
-  if (last_reference_ != nullptr) {
+  // The previous frames' poses follow their reference keyframes, which local BA, loop closing and
+  // map merges may have moved.
+  {
     std::shared_lock lock(map_.mutex());
-    last_frame_.T_c_w = last_T_c_r_ * map::keyframeTcw(last_reference_);
+    if (last_reference_ != nullptr) last_frame_.T_c_w = last_T_c_r_ * map::keyframeTcw(last_reference_);
+    for (HistoryFrame& h : history_)
+      if (h.reference != nullptr) h.frame.T_c_w = h.T_c_r * map::keyframeTcw(h.reference);
+    if (reference_keyframe_ != nullptr) active_map_ = reference_keyframe_->map_id;
   }
 
   if (options_.tracking.compensate_depth_delay && velocity_ && std::abs(frame.depth_time_offset) > 1e-4) {
@@ -86,7 +92,9 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
         ++relocalisations_;
       }
     }
-    if (!ok) ok = trackRecentKeyframes(frame);
+    // relocalisation.enabled = false turns every way back into an old map off (the atlas then
+    // starts a new map).
+    if (!ok && options_.relocalisation.enabled) ok = trackRecentKeyframes(frame);
   }
   // Too few features outside the mask for a first estimate (a person filling the view): fall
   // back on the motion prediction and let stage 1 and the local map decide. Only then: without
@@ -116,12 +124,24 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   }
 
   if (!ok) {
-    if (state_ == TrackingState::kOk) ++losses_;
+    if (state_ == TrackingState::kOk) {
+      ++losses_;
+      lost_since_ = frame.timestamp;
+    }
     state_ = TrackingState::kLost;
     velocity_.reset();
     history_.clear();  // stage 1 must not compare with frames from before the gap
+    bool young = false;
+    {
+      std::shared_lock lock(map_.mutex());
+      young = map_.keyframeCount(active_map_) < static_cast<size_t>(options_.atlas.young_map_keyframes);
+    }
+    if (shouldStartNewMap(frame, young)) {
+      resetForNewMap();
+      if (initialize(frame, outcome, young ? "young map lost" : "lost")) return outcome;
+    }
     ++lost_frames_;
-    records_.push_back({frame.id, frame.timestamp, nullptr, SE3()});
+    records_.push_back({frame.id, frame.timestamp, nullptr, SE3(), -1});
     return outcome;
   }
 
@@ -141,25 +161,62 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     last_T_c_r_ = frame.T_c_w * reference_keyframe_->T_c_w.inverse();
   }
   last_reference_ = reference_keyframe_;
-  records_.push_back({frame.id, frame.timestamp, reference_keyframe_, last_T_c_r_});
+  {
+    std::shared_lock lock(map_.mutex());
+    active_map_ = reference_keyframe_->map_id;
+  }
+  records_.push_back({frame.id, frame.timestamp, reference_keyframe_, last_T_c_r_, active_map_});
   // Visual-odometry matches only serve the next frame's motion-model search.
   last_frame_ = frame;
-  if (stage1_enabled_) {
-    history_.push_back(frame);
-    while (history_.size() > 1 &&
-           frame.timestamp - history_[1].timestamp >= options_.dynamic.stage1_min_interval_s)
-      history_.pop_front();
-  }
+  pushHistory(frame, reference_keyframe_, last_T_c_r_);
   return outcome;
 }
 
-bool Tracker::initialize(map::Frame& frame, TrackOutcome& outcome) {
-  keepUnverifiedMaskedFeaturesOut(frame);
+void Tracker::pushHistory(const map::Frame& frame, const map::Keyframe* reference, const SE3& T_c_r) {
+  if (!stage1_enabled_) return;
+  history_.push_back({frame, reference, T_c_r});
+  while (history_.size() > 1 &&
+         frame.timestamp - history_[1].frame.timestamp >= options_.dynamic.stage1_min_interval_s)
+    history_.pop_front();
+}
+
+bool Tracker::shouldStartNewMap(const map::Frame& frame, bool young_map) const {
+  if (!options_.atlas.enabled) return false;
+  const bool young = young_map;
+  return young || frame.timestamp - lost_since_ >= options_.atlas.new_map_after_lost_s - 1e-6;
+}
+
+void Tracker::resetForNewMap() {
+  velocity_.reset();
+  history_.clear();
+  local_keyframes_.clear();
+  local_points_.clear();
+}
+
+bool Tracker::canStartMap(const map::Frame& frame, const PinholeCamera& camera, const AtlasOptions& options) {
+  constexpr int kGrid = 4;
+  constexpr int kMinPerCell = 5;  // a cell with fewer is not counted as covered
   int with_depth = 0;
-  for (size_t i = 0; i < frame.features->size(); ++i)
-    if (frame.usable(i) && frame.features->hasDepth(i)) ++with_depth;
-  if (with_depth < kMinInitialPoints) {
-    records_.push_back({frame.id, frame.timestamp, nullptr, SE3()});
+  std::array<int, kGrid * kGrid> per_cell{};
+  for (size_t i = 0; i < frame.features->size(); ++i) {
+    if (!frame.usable(i) || !frame.features->hasDepth(i)) continue;
+    ++with_depth;
+    const cv::Point2f& pt = frame.features->keypoints[i].pt;
+    const int cx = std::clamp(static_cast<int>(pt.x * kGrid / camera.width()), 0, kGrid - 1);
+    const int cy = std::clamp(static_cast<int>(pt.y * kGrid / camera.height()), 0, kGrid - 1);
+    ++per_cell[cy * kGrid + cx];
+  }
+  const int cells = static_cast<int>(std::count_if(per_cell.begin(), per_cell.end(), [](int n) { return n >= kMinPerCell; }));
+  return with_depth >= options.min_initial_features && cells >= options.min_initial_cells;
+}
+
+bool Tracker::initialize(map::Frame& frame, TrackOutcome& outcome, const char* reason) {
+  keepUnverifiedMaskedFeaturesOut(frame);
+  frame.clearMatches();
+  if (!canStartMap(frame, camera_, options_.atlas)) {
+    // Waiting for a better frame; the caller counts a lost frame when a map had started.
+    ++initialisations_refused_;
+    if (state_ == TrackingState::kNotInitialized) records_.push_back({frame.id, frame.timestamp, nullptr, SE3(), -1});
     return false;
   }
   frame.T_c_w = SE3::identity();
@@ -167,8 +224,9 @@ bool Tracker::initialize(map::Frame& frame, TrackOutcome& outcome) {
   map::Keyframe* kf = nullptr;
   {
     std::unique_lock lock(map_.mutex());
+    active_map_ = map_.createMap(frame.id, frame.timestamp, reason);
     kf = map_.createKeyframe(frame.id, frame.timestamp, frame.image_name, frame.features, frame.status,
-                             halfDepthFor(frame), frame.T_c_w);
+                             halfDepthFor(frame), frame.T_c_w, active_map_);
     for (size_t i = 0; i < frame.features->size(); ++i) {
       if (!frame.usable(i) || !frame.features->hasDepth(i)) continue;
       map::MapPoint* p = map_.createPoint(camera_.backProject(frame.features->uv[i], frame.features->depth[i]), kf);
@@ -185,10 +243,13 @@ bool Tracker::initialize(map::Frame& frame, TrackOutcome& outcome) {
   last_reference_ = kf;
   last_T_c_r_ = SE3::identity();
   last_frame_ = frame;
-  if (stage1_enabled_) history_.push_back(frame);
-  records_.push_back({frame.id, frame.timestamp, kf, SE3::identity()});
+  velocity_.reset();
+  pushHistory(frame, kf, SE3::identity());
+  records_.push_back({frame.id, frame.timestamp, kf, SE3::identity(), active_map_});
+  ++maps_started_;
   outcome.tracked = true;
   outcome.new_keyframe = kf;
+  outcome.new_map = true;
   return true;
 }
 
@@ -436,7 +497,7 @@ bool Tracker::needKeyframe(const map::Frame& frame, int inliers, bool mapping_id
   size_t keyframes = 0;
   {
     std::shared_lock lock(map_.mutex());
-    keyframes = map_.keyframeCount();
+    keyframes = map_.keyframeCount(active_map_);
     reference_tracked = map::trackedPointCount(reference_keyframe_, keyframes <= 2 ? 2 : 3);
     T_c_lastkf = frame.T_c_w * map::keyframeTcw(last_keyframe_).inverse();
   }
@@ -536,8 +597,8 @@ void Tracker::applyStage1(map::Frame& frame, TrackOutcome& outcome) {
 
 const map::Frame& Tracker::stage1Reference(const map::Frame& frame) const {
   for (auto it = history_.rbegin(); it != history_.rend(); ++it)
-    if (frame.timestamp - it->timestamp >= options_.dynamic.stage1_min_interval_s) return *it;
-  return history_.empty() ? last_frame_ : history_.front();
+    if (frame.timestamp - it->frame.timestamp >= options_.dynamic.stage1_min_interval_s) return it->frame;
+  return history_.empty() ? last_frame_ : history_.front().frame;
 }
 
 int Tracker::applyStage2(map::Frame& frame) {
@@ -594,7 +655,7 @@ map::Keyframe* Tracker::createKeyframe(map::Frame& frame) {
       if (mappable < kMinKeyframeObservations) return nullptr;
     }
     kf = map_.createKeyframe(frame.id, frame.timestamp, frame.image_name, frame.features, status,
-                             halfDepthFor(frame), frame.T_c_w);
+                             halfDepthFor(frame), frame.T_c_w, active_map_);
     for (size_t i = 0; i < frame.matches.size(); ++i) {
       map::MapPoint* p = frame.matches[i].point;
       if (status[i] != map::FeatureStatus::kStatic) continue;

@@ -29,6 +29,7 @@ struct FrameRecord {
   Timestamp timestamp = 0;
   const map::Keyframe* reference = nullptr;  // null when the frame was not tracked
   SE3 T_c_r;
+  int map_id = -1;  // the atlas map it was tracked in (-1: none); merges may have moved it since
 };
 
 struct TrackOutcome {
@@ -40,13 +41,14 @@ struct TrackOutcome {
   map::Keyframe* new_keyframe = nullptr;  // to hand to local mapping
   int inliers = 0;                        // map-point inliers after local-map tracking
   bool used_motion_model = false;
+  bool new_map = false;                   // this frame started a map of the atlas
 };
 
 class Tracker {
  public:
   // database (may be null: no relocalisation): the keyframe BoW database local mapping keeps.
   Tracker(const SystemOptions& options, const PinholeCamera& camera, map::Map& map,
-          const loop::KeyframeDatabase* database = nullptr);
+          const place::KeyframeDatabase* database = nullptr);
 
   // frame.features and frame.status are set; writes frame.T_c_w and frame.matches.
   // mapping_idle: local mapping has no keyframe waiting (a keyframe criterion). mapping_backlog:
@@ -61,9 +63,22 @@ class Tracker {
   int losses() const { return losses_; }                    // times tracking went from ok to lost
   int relocalisations() const { return relocalisations_; }  // times the relocaliser recovered it
   int implausibleJumps() const { return implausible_jumps_; }  // poses refused by tracking.max_speed_m_s
+  int mapsStarted() const { return maps_started_; }           // maps of the atlas this tracker started
+  int initialisationsRefused() const { return initialisations_refused_; }  // frames too weak to start a map
+  int activeMap() const { return active_map_; }               // -1 before the first map
+
+  // Whether `frame` could start a map: atlas.min_initial_features static depth-backed features
+  // over at least atlas.min_initial_cells cells of a 4 x 4 grid.
+  static bool canStartMap(const map::Frame& frame, const PinholeCamera& camera, const AtlasOptions& options);
 
  private:
-  bool initialize(map::Frame& frame, TrackOutcome& outcome);
+  // Starts a map of the atlas at `frame` (reason for the map's record) when it is strong enough.
+  bool initialize(map::Frame& frame, TrackOutcome& outcome, const char* reason);
+  // Lost: whether relocalisation had its time (or the map is too young to wait for) and a new map
+  // should start at this frame.
+  bool shouldStartNewMap(const map::Frame& frame, bool young_map) const;
+  // Forgets the motion and local map of the map tracking left (a new one starts).
+  void resetForNewMap();
   bool trackWithMotionModel(map::Frame& frame);
   bool trackReferenceKeyframe(map::Frame& frame);
   // The camera motion T_later_earlier over `seconds` at the current velocity (identity without one).
@@ -113,12 +128,24 @@ class Tracker {
   std::vector<map::Keyframe*> local_keyframes_;
   std::vector<map::MapPoint*> local_points_;
   std::vector<uint64_t> point_stamp_;  // per point id: frame id it was last added to the local map
-  std::deque<map::Frame> history_;  // recent tracked frames, newest last (stage-1 references)
+  // Recent tracked frames, newest last (stage-1 references). Their poses are stored relative to
+  // their reference keyframe and refreshed before use, so they follow BA, loops and merges.
+  struct HistoryFrame {
+    map::Frame frame;
+    const map::Keyframe* reference = nullptr;
+    SE3 T_c_r;
+  };
+  std::deque<HistoryFrame> history_;
+  void pushHistory(const map::Frame& frame, const map::Keyframe* reference, const SE3& T_c_r);
   std::vector<FrameRecord> records_;
   int lost_frames_ = 0;
   int losses_ = 0;
   int relocalisations_ = 0;
   int implausible_jumps_ = 0;
+  int maps_started_ = 0;
+  int initialisations_refused_ = 0;
+  int active_map_ = -1;         // the atlas map tracking works in (its live id after merges)
+  Timestamp lost_since_ = 0;    // timestamp of the first lost frame of the current loss
   std::optional<Relocaliser> relocaliser_;
 };
 

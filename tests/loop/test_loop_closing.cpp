@@ -7,6 +7,7 @@
 //
 // Built on Map + LoopCloser directly: running the drift through system::SlamSystem would need a
 // drift hook in the tracker, which this stage does not own.
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -23,9 +24,9 @@
 #include "eval/metrics.hpp"
 #include "feature/descriptor.hpp"
 #include "feature/orb_extractor.hpp"
-#include "loop/keyframe_database.hpp"
+#include "place/keyframe_database.hpp"
 #include "loop/loop_closer.hpp"
-#include "loop/vocabulary_location.hpp"
+#include "place/vocabulary_location.hpp"
 #include "map/map.hpp"
 #include "sim/camera_path.hpp"
 #include "sim/synthetic_scene.hpp"
@@ -78,7 +79,12 @@ struct RunResult {
   LoopClosingStats stats;
 };
 
-enum class Mode { kNoLoopClosing, kInline, kThreads };
+// kTwoMaps: no drift, but the second lap is a second map of the atlas whose world is the first's
+// moved by kSecondMapWorld (as tracking starts a new map at identity after a loss); the loop
+// closer must find the first lap in it and merge the two.
+enum class Mode { kNoLoopClosing, kInline, kThreads, kTwoMaps };
+// T_wB_wA: where the first map's world lies in the second's.
+const SE3 kSecondMapWorld(Quat(Eigen::AngleAxisd(0.7, Vec3(0.2, 1.0, 0.1).normalized())), Vec3(0.8, -0.3, 1.5));
 
 RunResult run(Mode mode) {
   const std::vector<RenderedKeyframe>& rendered = renderedKeyframes();
@@ -87,10 +93,10 @@ RunResult run(Mode mode) {
   options.loop.enabled = mode != Mode::kNoLoopClosing;
   const PinholeCamera camera(options.camera);
   map::Map map;
-  KeyframeDatabase database(loadVocabulary(""), 2);
+  place::KeyframeDatabase database(place::loadVocabulary(""), 2);
   // Threads: this loop plays tracking and local mapping (bracketing its map changes with the
   // pause as LocalMappingThread would); loop closing and global BA run in their own threads.
-  MappingPause pause;
+  mapping::MappingPause pause;
   const bool threads = mode == Mode::kThreads;
   LoopCloser closer(options, camera, map, database, threads ? &pause : nullptr,
                     threads ? GlobalBaMode::kThread : GlobalBaMode::kInline);
@@ -98,7 +104,9 @@ RunResult run(Mode mode) {
   if (threads) loop_thread = std::make_unique<LoopClosingThread>(closer, 64);
 
   // Odometry bias per keyframe step: 0.4 deg of yaw and 1 cm sideways.
-  const SE3 bias(Quat(Eigen::AngleAxisd(0.4 * kPi / 180, Vec3::UnitY())), Vec3(0.01, 0.0, 0.0));
+  const bool two_maps = mode == Mode::kTwoMaps;
+  const SE3 bias = two_maps ? SE3() : SE3(Quat(Eigen::AngleAxisd(0.4 * kPi / 180, Vec3::UnitY())), Vec3(0.01, 0.0, 0.0));
+  int map_id = 0;
   std::map<uint64_t, Vec3> true_position;  // map point id -> ground truth (data association only)
   std::vector<map::Keyframe*> created;
   Trajectory truth;
@@ -111,21 +119,26 @@ RunResult run(Mode mode) {
     {
       std::unique_lock lock(map.mutex());
       SE3 T_w_c = r.T_w_c_true;
-      if (k > 0) {
+      const bool second_lap = two_maps && r.timestamp >= rendered.front().timestamp + kFramesPerLap / options.camera.fps;
+      if (second_lap && map_id == 0) map_id = map.createMap(k * kFrameStep, r.timestamp, "lost");
+      if (second_lap) {
+        T_w_c = kSecondMapWorld * r.T_w_c_true;
+      } else if (k > 0) {
         // Odometry from the previous keyframe's present estimate (corrected, if a loop closed).
         const SE3 motion = rendered[k - 1].T_w_c_true.inverse() * r.T_w_c_true;
         T_w_c = created.back()->T_w_c() * motion * bias;
       }
       kf = map.createKeyframe(k * kFrameStep, r.timestamp, "", r.features,
                               std::vector<map::FeatureStatus>(f.size(), map::FeatureStatus::kStatic), cv::Mat(),
-                              T_w_c.inverse());
+                              T_w_c.inverse(), map_id);
       // Ground-truth association with the points the last few keyframes see.
       const SE3 T_c_w_true = r.T_w_c_true.inverse();
       std::map<uint64_t, map::MapPoint*> local;
       // Only points made by those keyframes: with drift, older points would project elsewhere.
       for (size_t j = created.size() > kLocalKeyframes ? created.size() - kLocalKeyframes : 0; j < created.size(); ++j)
         for (map::MapPoint* p : created[j]->points)
-          if (p != nullptr && !p->bad && p->created_at_keyframe + kLocalKeyframes >= kf->id) local.emplace(p->id, p);
+          if (p != nullptr && !p->bad && p->created_at_keyframe + kLocalKeyframes >= kf->id && p->map_id == kf->map_id)
+            local.emplace(p->id, p);
       for (auto& [id, p] : local) {
         const Vec3 p_c = T_c_w_true * true_position.at(id);
         if (p_c.z() <= 0.1) continue;
@@ -217,6 +230,33 @@ TEST(LoopClosing, ThreadedLoopClosingWhileKeyframesArrive) {
   EXPECT_LT(with.ate.translation_m.rmse * 2, without.ate.translation_m.rmse);
 }
 
+// Two maps of the atlas, the second's world moved by a known transform: the loop closer recognises
+// the first lap in the second, moves the second map into the first's world by that transform and
+// leaves one map whose keyframes agree with the ground truth without any alignment.
+TEST(MapMerging, SecondMapIsMergedByTheKnownTransform) {
+  const RunResult merged = run(Mode::kTwoMaps);
+  ASSERT_EQ(merged.stats.merges.size(), 1u) << "loops closed " << merged.stats.loops_closed;
+  const MergedMaps& m = merged.stats.merges.front();
+  EXPECT_EQ(m.from_map, 1);
+  EXPECT_EQ(m.into_map, 0);
+  const SE3 error = m.T_into_from * kSecondMapWorld;  // identity when T_into_from = T_wA_wB
+  std::printf("merge at keyframe %llu (loop keyframe %llu, %d inliers): transform error %.2f mm, %.3f deg; ATE after "
+              "merging %.2f mm over %zu keyframes\n",
+              static_cast<unsigned long long>(m.current_keyframe), static_cast<unsigned long long>(m.loop_keyframe),
+              m.inliers, 1000 * error.translation().norm(), error.rotationAngle() * 180 / kPi,
+              1000 * merged.ate.translation_m.rmse, merged.ate.matched);
+  // The transform recognition found (RANSAC on 3-D-3-D matches) starts the merge; point fusion,
+  // the pose graph and the global BA refine it (the ATE below).
+  EXPECT_LT(error.translation().norm(), 0.10);
+  EXPECT_LT(error.rotationAngle() * 180 / kPi, 3.0);
+  EXPECT_GT(m.current_keyframe, m.loop_keyframe);
+  // One world: the ATE (one rigid alignment for every keyframe) is that of a drift-free map.
+  EXPECT_LT(merged.ate.translation_m.rmse, 0.01);
+  EXPECT_EQ(merged.ate.matched, renderedKeyframes().size());
+  EXPECT_TRUE(std::any_of(merged.stats.closed.begin(), merged.stats.closed.end(),
+                          [](const ClosedLoop& l) { return l.merge; }));
+}
+
 TEST(LoopOptions, ValidateNamesTheBadKey) {
   LoopOptions options;
   EXPECT_NO_THROW(options.validate());
@@ -233,7 +273,7 @@ TEST(LoopOptions, ValidateNamesTheBadKey) {
 }
 
 TEST(MappingPause, PauseWaitsForTheKeyframeInProgressAndHoldsTheNext) {
-  MappingPause pause;
+  mapping::MappingPause pause;
   std::atomic<bool> abort_flag{false};
   pause.setAbortFlag(&abort_flag);
   std::atomic<int> processed{0};

@@ -14,8 +14,8 @@
 #include "core/camera.hpp"
 #include "core/options.hpp"
 #include "feature/orb_extractor.hpp"
-#include "loop/keyframe_database.hpp"
-#include "loop/vocabulary_location.hpp"
+#include "place/keyframe_database.hpp"
+#include "place/vocabulary_location.hpp"
 #include "map/frame.hpp"
 #include "map/map.hpp"
 #include "mapping/local_mapper.hpp"
@@ -40,7 +40,7 @@ class RelocalisationScene {
         path_(sim::sweepPath(settings.mapped_frames, options_.camera.fps)),
         extractor_(options_.orb),
         pyramid_(std::make_shared<feature::ScalePyramid>(extractor_.pyramid())),
-        vocabulary_(loop::loadVocabulary(options_.relocalisation.vocabulary)),
+        vocabulary_(place::loadVocabulary(options_.relocalisation.vocabulary)),
         database_(vocabulary_, options_.relocalisation.direct_index_level),
         tracker_(options_, camera_, map_),
         mapper_(options_, camera_, map_) {
@@ -86,8 +86,8 @@ class RelocalisationScene {
   double bf() const { return camera_.fx() * options_.tracking.depth_baseline; }
   bool allTracked() const { return all_tracked_; }
   SE3 lastTrackedPose() const { return last_tracked_T_c_w_; }
-  const loop::KeyframeDatabase& database() const { return database_; }
-  std::shared_ptr<const loop::Vocabulary> vocabulary() const { return vocabulary_; }
+  const place::KeyframeDatabase& database() const { return database_; }
+  std::shared_ptr<const place::Vocabulary> vocabulary() const { return vocabulary_; }
   map::Map& map() const { return map_; }
   const PinholeCamera& camera() const { return camera_; }
   const SystemOptions& options() const { return options_; }
@@ -115,8 +115,8 @@ class RelocalisationScene {
   Trajectory path_;
   feature::OrbExtractor extractor_;
   std::shared_ptr<const feature::ScalePyramid> pyramid_;
-  std::shared_ptr<const loop::Vocabulary> vocabulary_;
-  loop::KeyframeDatabase database_;
+  std::shared_ptr<const place::Vocabulary> vocabulary_;
+  place::KeyframeDatabase database_;
   mutable map::Map map_;
   Tracker tracker_;
   mapping::LocalMapper mapper_;

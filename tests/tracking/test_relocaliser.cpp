@@ -184,7 +184,7 @@ TEST_F(RelocaliserScene, RejectsAViewTheMapNeverSaw) {
 }
 
 TEST_F(RelocaliserScene, FailsCleanlyWithAnEmptyDatabase) {
-  loop::KeyframeDatabase empty(scene_->vocabulary(), RelocalisationOptions{}.direct_index_level);
+  place::KeyframeDatabase empty(scene_->vocabulary(), RelocalisationOptions{}.direct_index_level);
   const Relocaliser relocaliser(RelocalisationOptions{}, scene_->camera(), scene_->map(), empty, scene_->bf());
   map::Frame frame = scene_->frameAt(5);
   const RelocalisationResult result = relocaliser.relocalise(frame);

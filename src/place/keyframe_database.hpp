@@ -19,13 +19,13 @@
 #include <unordered_map>
 #include <vector>
 
-#include "loop/bow_database.hpp"
-#include "loop/bow_types.hpp"
-#include "loop/vocabulary.hpp"
+#include "place/bow_database.hpp"
+#include "place/bow_types.hpp"
+#include "place/vocabulary.hpp"
 #include "map/features.hpp"
 #include "map/map_types.hpp"
 
-namespace desslam::loop {
+namespace desslam::place {
 
 // What the vocabulary makes of one image's usable features. Feature-vector rows are indices into
 // the image's FeatureSet (not into the subset that was encoded).
@@ -79,4 +79,4 @@ class KeyframeDatabase {
   std::unordered_map<uint64_t, map::Keyframe*> keyframes_;
 };
 
-}  // namespace desslam::loop
+}  // namespace desslam::place

@@ -9,11 +9,11 @@
 #include <gtest/gtest.h>
 
 #include "core/error.hpp"
-#include "loop/keyframe_database.hpp"
-#include "loop/vocabulary_location.hpp"
+#include "place/keyframe_database.hpp"
+#include "place/vocabulary_location.hpp"
 #include "map/map_types.hpp"
 
-namespace desslam::loop {
+namespace desslam::place {
 namespace {
 
 // The shipped vocabulary (vocab/): the database is meant to run with it.
@@ -178,4 +178,4 @@ TEST(VocabularyLocation, ExplicitPathIsTheOnlyPlaceLookedAt) {
 }
 
 }  // namespace
-}  // namespace desslam::loop
+}  // namespace desslam::place

@@ -5,7 +5,7 @@
 #include <map>
 #include <vector>
 
-namespace desslam::loop {
+namespace desslam::place {
 
 // Index of a leaf (visual word) of the vocabulary, 0..wordCount()-1.
 using WordId = uint32_t;
@@ -40,4 +40,4 @@ void forEachSharedNode(const FeatureVector& a, const FeatureVector& b, Fn&& fn) 
   }
 }
 
-}  // namespace desslam::loop
+}  // namespace desslam::place

@@ -14,11 +14,11 @@
 #include "eval/association.hpp"
 #include "feature/orb_extractor.hpp"
 #include "io/trajectory_io.hpp"
-#include "loop/bow_database.hpp"
-#include "loop/vocabulary.hpp"
+#include "place/bow_database.hpp"
+#include "place/vocabulary.hpp"
 #include "support/shared_data.hpp"
 
-namespace desslam::loop {
+namespace desslam::place {
 namespace {
 
 namespace fs = std::filesystem;
@@ -123,4 +123,4 @@ TEST(VocabularyRetrieval, SecondHalfOfFr1XyzFindsNearbyFirstHalfKeyframes) {
 }
 
 }  // namespace
-}  // namespace desslam::loop
+}  // namespace desslam::place

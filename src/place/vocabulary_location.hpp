@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "loop/vocabulary.hpp"
+#include "place/vocabulary.hpp"
 
-namespace desslam::loop {
+namespace desslam::place {
 
 inline constexpr const char* kDefaultVocabularyFile = "desslam_orb_k10l5.bin";
 
@@ -23,4 +23,4 @@ std::filesystem::path resolveVocabularyPath(const std::string& configured,
 // when no file is found, InputError (from Vocabulary::load) for a bad file.
 std::shared_ptr<const Vocabulary> loadVocabulary(const std::string& configured);
 
-}  // namespace desslam::loop
+}  // namespace desslam::place

@@ -1,4 +1,4 @@
-#include "loop/vocabulary.hpp"
+#include "place/vocabulary.hpp"
 
 #include <algorithm>
 #include <array>
@@ -16,7 +16,7 @@
 #include "core/options.hpp"
 #include "feature/descriptor.hpp"
 
-namespace desslam::loop {
+namespace desslam::place {
 namespace {
 
 constexpr int kBytes = feature::kDescriptorBytes;
@@ -490,4 +490,4 @@ Vocabulary Vocabulary::load(const std::filesystem::path& path) {
   return vocabulary;
 }
 
-}  // namespace desslam::loop
+}  // namespace desslam::place

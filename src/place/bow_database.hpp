@@ -15,9 +15,9 @@
 #include <unordered_map>
 #include <vector>
 
-#include "loop/bow_types.hpp"
+#include "place/bow_types.hpp"
 
-namespace desslam::loop {
+namespace desslam::place {
 
 class Vocabulary;
 
@@ -77,4 +77,4 @@ class BowDatabase {
   std::unordered_map<uint64_t, Entry> entries_;
 };
 
-}  // namespace desslam::loop
+}  // namespace desslam::place

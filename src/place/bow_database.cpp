@@ -1,12 +1,12 @@
-#include "loop/bow_database.hpp"
+#include "place/bow_database.hpp"
 
 #include <algorithm>
 #include <string>
 
 #include "core/error.hpp"
-#include "loop/vocabulary.hpp"
+#include "place/vocabulary.hpp"
 
-namespace desslam::loop {
+namespace desslam::place {
 
 BowDatabase::BowDatabase(std::size_t word_count) : inverted_(word_count) {}
 
@@ -120,4 +120,4 @@ std::optional<FeatureVector> BowDatabase::featureVector(uint64_t id) const {
   return it->second.features;
 }
 
-}  // namespace desslam::loop
+}  // namespace desslam::place

@@ -16,9 +16,9 @@
 #include <opencv2/core.hpp>
 
 #include "core/error.hpp"
-#include "loop/bow_types.hpp"
+#include "place/bow_types.hpp"
 
-namespace desslam::loop {
+namespace desslam::place {
 
 struct VocabularyOptions {
   int branching = 10;            // k: children per node
@@ -108,4 +108,4 @@ class Vocabulary {
   std::vector<float> weights_;         // word id -> idf
 };
 
-}  // namespace desslam::loop
+}  // namespace desslam::place

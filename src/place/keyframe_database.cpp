@@ -1,11 +1,11 @@
-#include "loop/keyframe_database.hpp"
+#include "place/keyframe_database.hpp"
 
 #include <string>
 
 #include "core/error.hpp"
 #include "core/options.hpp"
 
-namespace desslam::loop {
+namespace desslam::place {
 
 namespace {
 const Vocabulary& requireVocabulary(const std::shared_ptr<const Vocabulary>& vocabulary) {
@@ -97,4 +97,4 @@ std::size_t KeyframeDatabase::size() const {
   return keyframes_.size();
 }
 
-}  // namespace desslam::loop
+}  // namespace desslam::place

@@ -1,4 +1,4 @@
-#include "loop/vocabulary_location.hpp"
+#include "place/vocabulary_location.hpp"
 
 #include <unistd.h>
 
@@ -8,7 +8,7 @@
 
 #include "core/error.hpp"
 
-namespace desslam::loop {
+namespace desslam::place {
 
 namespace fs = std::filesystem;
 
@@ -58,4 +58,4 @@ std::shared_ptr<const Vocabulary> loadVocabulary(const std::string& configured) 
   return std::make_shared<const Vocabulary>(Vocabulary::load(path));
 }
 
-}  // namespace desslam::loop
+}  // namespace desslam::place

@@ -12,10 +12,10 @@
 #include <unistd.h>
 
 #include "core/error.hpp"
-#include "loop/descriptor_clusters.hpp"
-#include "loop/vocabulary.hpp"
+#include "place/descriptor_clusters.hpp"
+#include "place/vocabulary.hpp"
 
-namespace desslam::loop {
+namespace desslam::place {
 namespace {
 
 using test::Bits;
@@ -350,4 +350,4 @@ TEST_F(VocabularyFile, CorruptionFailsChecksum) {
 }
 
 }  // namespace
-}  // namespace desslam::loop
+}  // namespace desslam::place

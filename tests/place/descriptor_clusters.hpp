@@ -8,7 +8,7 @@
 
 #include <opencv2/core.hpp>
 
-namespace desslam::loop::test {
+namespace desslam::place::test {
 
 using Bits = std::array<uint8_t, 32>;
 
@@ -34,4 +34,4 @@ inline cv::Mat toMat(const std::vector<Bits>& rows) {
   return m;
 }
 
-}  // namespace desslam::loop::test
+}  // namespace desslam::place::test

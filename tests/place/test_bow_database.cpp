@@ -7,10 +7,10 @@
 #include <gtest/gtest.h>
 
 #include "core/error.hpp"
-#include "loop/bow_database.hpp"
-#include "loop/vocabulary.hpp"
+#include "place/bow_database.hpp"
+#include "place/vocabulary.hpp"
 
-namespace desslam::loop {
+namespace desslam::place {
 namespace {
 
 BowVector normalised(BowVector v) {
@@ -155,4 +155,4 @@ TEST(BowDatabase, ConcurrentUseKeepsAConsistentState) {
 }
 
 }  // namespace
-}  // namespace desslam::loop
+}  // namespace desslam::place
