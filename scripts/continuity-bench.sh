@@ -60,7 +60,9 @@ for g in $gaps; do
     { echo "error: gap '$g' is not FIRST-LAST with FIRST <= LAST (0-based frame indices), e.g. 200-259" >&2; exit 2; }
 done
 [ "$gaps_only" = 0 ] || [ -n "$gaps" ] || { echo "error: --gaps-only without --gaps leaves nothing to run" >&2; exit 2; }
-[ -x build/desslam ] || { echo "error: $repo_root/build/desslam missing: build it first (scripts/install-and-build.sh)" >&2; exit 1; }
+# DESSLAM_BIN: another binary (e.g. a copy, so that a rebuild does not change a running benchmark).
+desslam=${DESSLAM_BIN:-build/desslam}
+[ -x "$desslam" ] || { echo "error: $desslam missing: build it first (scripts/install-and-build.sh)" >&2; exit 1; }
 command -v python3 >/dev/null || { echo "error: python3 not found" >&2; exit 1; }
 
 cases=()
@@ -237,7 +239,7 @@ for spec in "${specs[@]}"; do
       dir=$out/$name/$c/run$i
       mkdir -p "$dir"
       rm -f "$dir/report.json" "$dir/CameraTrajectory_all.txt" "$dir/stderr.log"
-      build/desslam run "$seq" --config "$cfg" --out "$dir" -q "${skip[@]+"${skip[@]}"}" \
+      "$desslam" run "$seq" --config "$cfg" --out "$dir" -q "${skip[@]+"${skip[@]}"}" \
         "${extra[@]+"${extra[@]}"}" >"$dir/desslam.log" 2>&1
       rc=$?
       [ "$rc" = 0 ] || echo "warning: $name $c run$i: desslam exited $rc; see $dir/desslam.log" >&2

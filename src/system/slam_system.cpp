@@ -234,7 +234,7 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
 }
 
 void SlamSystem::pushDenseKeyframe(const map::Keyframe* kf, const map::Frame& frame, const cv::Mat& bgr,
-                                   const cv::Mat& labels) const {
+                                   const cv::Mat& labels) {
   auto dense_kf = std::make_shared<dense::DenseKeyframe>();
   dense_kf->keyframe_id = kf->id;
   dense_kf->timestamp = frame.timestamp;
@@ -254,13 +254,35 @@ void SlamSystem::pushDenseKeyframe(const map::Keyframe* kf, const map::Frame& fr
   // merges the new keyframe's points into voxels anchored at older keyframes with the poses
   // local BA has refined. Cheap here: the dense thread applies them itself.
   dense::PoseMap poses;
+  std::vector<std::shared_ptr<dense::DenseKeyframe>> ready;  // into the dense map now
   {
     std::shared_lock lock(map_.mutex());
     for (const map::Keyframe* other : map_.allKeyframes())
       if (other != kf) poses.emplace(other->id, map::keyframeTcw(other).inverse());
+    // The dense map has one world: that of the map its first keyframe came from. Keyframes of
+    // other maps wait until a merge brings their map into that world.
+    if (dense_world_map_ < 0) dense_world_map_ = kf->map_id;
+    const int world = map_.liveMap(dense_world_map_);
+    dense_held_.push_back({kf->map_id, std::move(dense_kf)});
+    for (auto it = dense_held_.begin(); it != dense_held_.end();) {
+      if (map_.liveMap(it->first) != world) {
+        ++it;
+        continue;
+      }
+      const map::Keyframe* held = nullptr;
+      for (const map::Keyframe* k : map_.allKeyframes())  // few held keyframes: linear is fine
+        if (k->id == it->second->keyframe_id) held = k;
+      if (held != nullptr) it->second->T_w_c = map::keyframeTcw(held).inverse();
+      ready.push_back(std::move(it->second));
+      it = dense_held_.erase(it);
+    }
+    while (dense_held_.size() > kMaxHeldDenseKeyframes) {  // bounded memory: the oldest go
+      dense_held_.erase(dense_held_.begin());
+      ++dense_held_dropped_;
+    }
   }
   dense_->updatePoses(poses);
-  dense_->push(std::move(dense_kf));
+  for (auto& k : ready) dense_->push(std::move(k));
 }
 
 void SlamSystem::finish() {
@@ -500,20 +522,41 @@ nlohmann::json SlamSystem::exportDenseMap(const std::filesystem::path& out_dir, 
   const size_t peak_before_export = dense::peakResidentBytes();
   dense::PoseMap poses;
   std::vector<SE3> camera_path;
+  int main_map = -1, world = -1;
   {
     std::shared_lock lock(map_.mutex());
+    main_map = mainMapLocked();
+    world = dense_world_map_ < 0 ? -1 : map_.liveMap(dense_world_map_);
+    if (main_map < 0) main_map = world;
     for (const map::Keyframe* kf : map_.allKeyframes()) poses[kf->id] = map::keyframeTcw(kf).inverse();
-    for (const map::Keyframe* kf : map_.keyframes()) camera_path.push_back(kf->T_w_c());
+    for (const map::Keyframe* kf : map_.keyframes())
+      if (kf->map_id == main_map) camera_path.push_back(kf->T_w_c());
   }
+  // The dense map follows the main map (the trajectory's): when that is not the dense map's world
+  // (an unmerged map outgrew it), its held keyframes are mapped now, in a dense map of their own.
+  std::unique_ptr<dense::DenseMappingThread> main_dense;
+  if (main_map != world) {
+    main_dense = std::make_unique<dense::DenseMappingThread>(options_.dense, camera_, QueueFullPolicy::kBlock);
+    std::shared_lock lock(map_.mutex());
+    for (const auto& [map_id, held] : dense_held_) {
+      if (map_.liveMap(map_id) != main_map) continue;
+      auto copy = std::make_shared<dense::DenseKeyframe>(*held);
+      copy->T_w_c = poses.at(copy->keyframe_id);
+      main_dense->push(std::move(copy));
+    }
+  }
+  if (main_dense) main_dense->waitUntilIdle();
+  const dense::DenseMappingThread* dense = main_dense ? main_dense.get() : dense_.get();
   dense_->updatePoses(poses);
-  const dense::DenseCloud exported = dense_->exportCloud(poses);
+  if (main_dense) main_dense->updatePoses(poses);
+  const dense::DenseCloud exported = dense->exportCloud(poses);
   const double cloud_ms = millisecondsSince(start);
   const std::shared_ptr<open3d::geometry::PointCloud> cloud = dense::toOpen3d(exported, semantic_colour);
   dense::writePly(out_dir / "dense_map.ply", *cloud);
   dense::writePcd(out_dir / "dense_map.pcd", *cloud);
   dense::writeMapSources(out_dir / "dense_map_sources.bin", exported.first_seen);
   const auto octomap_start = std::chrono::steady_clock::now();
-  dense::writeOctomap(out_dir / "octomap.bt", dense_->worldScans(poses), options_.dense.octomap_resolution,
+  dense::writeOctomap(out_dir / "octomap.bt", dense->worldScans(poses), options_.dense.octomap_resolution,
                       options_.dense.max_depth);
   const double octomap_ms = millisecondsSince(octomap_start);
   dense::RenderSettings render;
@@ -521,7 +564,7 @@ nlohmann::json SlamSystem::exportDenseMap(const std::filesystem::path& out_dir, 
   render.height = options_.dense.render_height;
   render.point_size = options_.dense.voxel_size;
   dense::renderPng(out_dir / "dense_map.png", *cloud, camera_path, render);
-  const dense::DenseMapStats stats = dense_->mapStats();
+  const dense::DenseMapStats stats = dense->mapStats();
   // The free-space-violation share needs the keyframes' depth images, which the dense thread
   // does not keep (that is what bounds its memory): `desslam mapcheck` computes it.
   return {{"enabled", true},
@@ -535,14 +578,16 @@ nlohmann::json SlamSystem::exportDenseMap(const std::filesystem::path& out_dir, 
           {"voxels_merged_by_rekey", stats.voxels_merged},
           {"carve_free_space", options_.dense.carve_free_space},
           {"voxel_misses_by_carving", stats.voxel_misses},
-          {"thread_ms_per_keyframe", summarizeMilliseconds(dense_->keyframeMilliseconds())},
-          {"thread_cpu_ms_per_keyframe", summarizeMilliseconds(dense_->keyframeCpuMilliseconds())},
+          {"thread_ms_per_keyframe", summarizeMilliseconds(dense->keyframeMilliseconds())},
+          {"thread_cpu_ms_per_keyframe", summarizeMilliseconds(dense->keyframeCpuMilliseconds())},
           {"peak_rss_mib", static_cast<double>(dense::peakResidentBytes()) / (1024.0 * 1024.0)},
           {"peak_rss_before_export_mib", static_cast<double>(peak_before_export) / (1024.0 * 1024.0)},
           {"export_cloud_ms", cloud_ms},
           {"export_octomap_ms", octomap_ms},
           {"export_ms", millisecondsSince(start)},
-          {"sources_file", "dense_map_sources.bin"}};
+          {"sources_file", "dense_map_sources.bin"},
+          {"map", main_map},
+          {"keyframes_of_other_maps_left_out", dense_held_.size() + dense_held_dropped_}};
 }
 
 }  // namespace desslam::system

@@ -35,6 +35,7 @@ struct Segmentation;
 }
 namespace desslam::dense {
 class DenseMappingThread;
+struct DenseKeyframe;
 }
 
 namespace desslam::system {
@@ -111,8 +112,10 @@ class SlamSystem {
   int mainMapLocked() const;
   // The atlas for report.json: maps, merges. Map lock taken here.
   nlohmann::json atlasJson() const;
+  // Hands the keyframe to the dense thread, or holds it while its map is not the dense map's
+  // world (tracking thread only).
   void pushDenseKeyframe(const map::Keyframe* kf, const map::Frame& frame, const cv::Mat& bgr,
-                         const cv::Mat& labels) const;
+                         const cv::Mat& labels);
 
   SystemOptions options_;
   RunSettings settings_;
@@ -140,6 +143,13 @@ class SlamSystem {
   std::shared_ptr<const semantic::Segmentation> emulated_result_;
   uint64_t emulated_result_id_ = 0;
   bool carriesMasks() const { return settings_.realtime || settings_.mask_latency_frames > 0; }
+
+  // Dense keyframes of maps not (yet) merged into the dense map's world (tracking thread only),
+  // with the map they were made in; at most kMaxHeldDenseKeyframes (the oldest are dropped).
+  static constexpr size_t kMaxHeldDenseKeyframes = 300;
+  int dense_world_map_ = -1;
+  std::vector<std::pair<int, std::shared_ptr<dense::DenseKeyframe>>> dense_held_;
+  size_t dense_held_dropped_ = 0;
 
   std::vector<FrameStats> frames_;
   uint64_t next_frame_id_ = 0;

@@ -24,6 +24,9 @@ constexpr int kCloseTrackedNeeded = 100;   // "need close points" keyframe crite
 constexpr int kCloseUntrackedEnough = 70;
 constexpr int kMinNewDepthPoints = 100;    // a keyframe gets at least this many depth points
 constexpr int kMinKeyframeObservations = 100;  // mappable features a keyframe needs beside a mask
+constexpr int kMinKeyframeObservationsStarving = 50;  // ... when tracking is about to be lost
+constexpr int kStarvingInliers = 2 * kMinLocalMapInliers;  // local-map inliers below which it is
+constexpr int kMinMappingMarginPx = 5;  // a narrower margin is none
 constexpr size_t kRecoveryKeyframes = 8;   // when lost, the newest keyframes tried before giving up
 constexpr double kStillTranslation = 0.005;        // metres per frame below which motion is negligible
 constexpr double kStillRotation = 0.5 * M_PI / 180;  // radians per frame
@@ -154,7 +157,7 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     velocity_ = frame.T_c_w * last_frame_.T_c_w.inverse();
     velocity_interval_s_ = frame.timestamp - last_frame_.timestamp;
   }
-  if (needKeyframe(frame, inliers, mapping_idle, mapping_backlog)) outcome.new_keyframe = createKeyframe(frame);
+  if (needKeyframe(frame, inliers, mapping_idle, mapping_backlog)) outcome.new_keyframe = createKeyframe(frame, inliers);
 
   {
     std::shared_lock lock(map_.mutex());
@@ -635,25 +638,47 @@ int Tracker::applyStage2(map::Frame& frame) {
   return static_cast<int>(culled.size());
 }
 
-map::Keyframe* Tracker::createKeyframe(map::Frame& frame) {
+std::optional<std::vector<map::FeatureStatus>> Tracker::mappableStatus(const map::Frame& frame, int inliers) const {
+  std::vector<map::FeatureStatus> status = frame.status;
+  if (frame.mapping_margin_px <= 0 || frame.dynamic_mask.empty()) return status;
+  const auto mappable = [&](const std::vector<map::FeatureStatus>& s) {
+    int n = 0;
+    for (size_t i = 0; i < s.size(); ++i)
+      n += s[i] == map::FeatureStatus::kStatic && (frame.matches[i].point != nullptr || frame.features->hasDepth(i));
+    return n;
+  };
+  // The margin keeps walkers' unmasked limbs out of the map (it fixed a real drift), but in a
+  // crowd it may leave too little: then a narrower one, down to none (the features there passed
+  // stage 1 and 2).
+  for (int margin = frame.mapping_margin_px; margin > 0; margin /= 2) {
+    if (margin < kMinMappingMarginPx) margin = 0;
+    std::vector<map::FeatureStatus> candidate = frame.status;
+    if (margin > 0) {
+      const std::vector<uint8_t> excluded =
+          dynamic::featuresInMask(*frame.features, dynamic::dilateMask(frame.dynamic_mask, margin));
+      for (size_t i = 0; i < candidate.size(); ++i)
+        if (excluded[i] && candidate[i] == map::FeatureStatus::kStatic) candidate[i] = map::FeatureStatus::kDynamicMask;
+    }
+    const int n = mappable(candidate);
+    // A keyframe with little left to observe is barely constrained: bundle adjustment can move it
+    // anywhere (Bonn crowd, emulated late masks: one ended 2 m away). Fewer are accepted only when
+    // tracking itself is about to starve: without a keyframe the map would stop growing there.
+    const bool starving = inliers < kStarvingInliers;
+    if (n >= kMinKeyframeObservations || (margin == 0 && starving && n >= kMinKeyframeObservationsStarving))
+      return candidate;
+    if (margin == 0) break;
+  }
+  return std::nullopt;
+}
+
+map::Keyframe* Tracker::createKeyframe(map::Frame& frame, int inliers) {
   map::Keyframe* kf = nullptr;
-  std::vector<uint8_t> excluded;  // within the mapping margin (computed before taking the lock)
-  if (frame.mapping_margin_px > 0 && !frame.dynamic_mask.empty())
-    excluded = dynamic::featuresInMask(*frame.features, dynamic::dilateMask(frame.dynamic_mask, frame.mapping_margin_px));
+  // The mapping margin's dilations are computed before taking the lock.
+  const std::optional<std::vector<map::FeatureStatus>> mappable = mappableStatus(frame, inliers);
+  if (!mappable) return nullptr;
+  const std::vector<map::FeatureStatus>& status = *mappable;
   {
     std::unique_lock lock(map_.mutex());
-    std::vector<map::FeatureStatus> status = frame.status;
-    if (!excluded.empty()) {
-      int mappable = 0;
-      for (size_t i = 0; i < status.size(); ++i) {
-        if (excluded[i] && status[i] == map::FeatureStatus::kStatic) status[i] = map::FeatureStatus::kDynamicMask;
-        if (status[i] == map::FeatureStatus::kStatic && (frame.matches[i].point != nullptr || frame.features->hasDepth(i)))
-          ++mappable;
-      }
-      // A keyframe with little left to observe is barely constrained: bundle adjustment can move it
-      // anywhere (Bonn crowd, emulated late masks: one ended 2 m away). Better none.
-      if (mappable < kMinKeyframeObservations) return nullptr;
-    }
     kf = map_.createKeyframe(frame.id, frame.timestamp, frame.image_name, frame.features, status,
                              halfDepthFor(frame), frame.T_c_w, active_map_);
     for (size_t i = 0; i < frame.matches.size(); ++i) {

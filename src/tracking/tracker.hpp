@@ -103,8 +103,11 @@ class Tracker {
   int optimizeFramePose(map::Frame& frame);
   void updateLocalMap(const map::Frame& frame);
   bool needKeyframe(const map::Frame& frame, int inliers, bool mapping_idle, int mapping_backlog) const;
-  // Null when a late mask leaves the frame too little to map (see kMinKeyframeObservations).
-  map::Keyframe* createKeyframe(map::Frame& frame);
+  // Null when the mask leaves the frame too little to map (see kMinKeyframeObservations).
+  map::Keyframe* createKeyframe(map::Frame& frame, int inliers);
+  // The feature status a keyframe of `frame` maps with: the mapping margin around the mask,
+  // narrowed (to none) when it leaves too little; nothing when even that is too little.
+  std::optional<std::vector<map::FeatureStatus>> mappableStatus(const map::Frame& frame, int inliers) const;
   cv::Mat halfDepthFor(const map::Frame& frame) const;
   void createDepthPoints(map::Frame& frame, const std::vector<map::FeatureStatus>& status, map::Keyframe* kf);  // exclusive lock held
 
