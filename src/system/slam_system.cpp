@@ -207,6 +207,14 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   stats.inliers = outcome.inliers;
   stats.motion_model = outcome.used_motion_model;
   stats.new_map = outcome.new_map;
+  stats.weak = outcome.weak;
+  if (outcome.relocalisation) {
+    const tracking::RelocalisationResult& r = *outcome.relocalisation;
+    stats.reloc_candidates = r.candidates;
+    stats.reloc_matches = r.best_matches;
+    stats.reloc_pnp_inliers = r.best_pnp_inliers;
+    stats.reloc_inliers = r.success ? r.inliers : r.best_inliers;
+  }
   stats.timestamp = timestamp;
   if (outcome.tracked && !tracker_.records().empty()) stats.map = tracker_.records().back().map_id;
 
@@ -435,7 +443,12 @@ nlohmann::json SlamSystem::statistics() const {
                          {"fresh_mask", f.mask_age == 0}, {"segmentation_ms", f.segmentation_ms},
                          {"tracking_ms", f.extraction_ms + f.tracking_ms}, {"tracked", f.tracked},
                          {"keyframe", f.keyframe}, {"inliers", f.inliers}, {"motion_model", f.motion_model},
-                         {"timestamp", f.timestamp}, {"map", f.map}, {"new_map", f.new_map}});
+                         {"timestamp", f.timestamp}, {"map", f.map}, {"new_map", f.new_map},
+                         {"weak", f.weak}});
+    if (f.reloc_candidates >= 0)
+      per_frame.back()["relocalisation"] = {{"candidates", f.reloc_candidates}, {"best_matches", f.reloc_matches},
+                                            {"best_pnp_inliers", f.reloc_pnp_inliers},
+                                            {"best_inliers", f.reloc_inliers}};
   }
   size_t tracked = 0;
   for (const auto& r : tracker_.records())
@@ -449,6 +462,7 @@ nlohmann::json SlamSystem::statistics() const {
                    {"tracking_losses", tracker_.losses()},
                    {"relocalisations", tracker_.relocalisations()},
                    {"implausible_jumps_refused", tracker_.implausibleJumps()},
+                   {"weak_poses", tracker_.weakPoses()},
                    {"keyframes", map_.keyframeCount()},
                    {"keyframes_created", map_.allKeyframes().size()},
                    {"map_points", map_.pointCount()}};

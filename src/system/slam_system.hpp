@@ -67,6 +67,10 @@ struct FrameStats {
   int inliers = 0;            // map-point inliers after local-map tracking
   bool motion_model = false;  // the first estimate came from the constant-velocity prediction
   bool new_map = false;       // the frame started a map of the atlas
+  bool weak = false;          // tracked with few inliers that agreed with the motion prediction
+  // Relocalisation attempt on this frame (lost): candidates tried, best descriptor matches, PnP
+  // inliers, pose inliers (-1: not attempted).
+  int reloc_candidates = -1, reloc_matches = -1, reloc_pnp_inliers = -1, reloc_inliers = -1;
   int map = -1;               // the map it was tracked in (-1: none)
   double timestamp = 0;
 };

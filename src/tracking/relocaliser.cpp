@@ -80,6 +80,7 @@ RelocalisationResult Relocaliser::relocalise(map::Frame& frame) const {
   for (map::Keyframe* kf : candidates(encoding.bow)) {
     ++result.candidates;
     const auto matches = matchByNodes(frame, encoding.features, kf);
+    result.best_matches = std::max(result.best_matches, static_cast<int>(matches.size()));
     if (static_cast<int>(matches.size()) < options_.min_matches) continue;
 
     std::vector<Vec3> points_w;
@@ -95,6 +96,7 @@ RelocalisationResult Relocaliser::relocalise(map::Frame& frame) const {
       }
     }
     const PnpResult pnp = solvePnpRansac(points_w, uv, camera_, options_);
+    result.best_pnp_inliers = std::max(result.best_pnp_inliers, static_cast<int>(pnp.inliers.size()));
     if (!pnp.ok) continue;
 
     frame.clearMatches();
@@ -110,6 +112,7 @@ RelocalisationResult Relocaliser::relocalise(map::Frame& frame) const {
           searchCovisiblePoints(frame, kf, kNarrowSearchFactor * options_.search_radius_px) > 0)
         inliers = optimizePose(frame);
     }
+    result.best_inliers = std::max(result.best_inliers, inliers);
     if (inliers >= options_.min_inliers) {
       result.success = true;
       result.keyframe = kf;

@@ -38,6 +38,9 @@ struct RelocalisationResult {
   map::Keyframe* keyframe = nullptr;  // the candidate that gave the pose (tracking's new reference)
   int candidates = 0;                 // candidates tried
   int inliers = 0;                    // map-point inliers of the final pose optimisation
+  // Why an attempt failed (the best candidate's figures): descriptor matches, PnP-RANSAC inliers,
+  // pose-optimisation inliers after the guided search (success needs relocalisation.min_inliers).
+  int best_matches = 0, best_pnp_inliers = 0, best_inliers = 0;
 };
 
 class Relocaliser {

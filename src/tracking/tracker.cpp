@@ -18,6 +18,16 @@ constexpr int kMinMotionMatches = 20;      // below: widen the window once, then
 constexpr int kMinMapInliersStep = 10;     // after motion-model / reference-keyframe tracking
 constexpr int kMinLocalMapInliers = 30;    // after local-map tracking
 constexpr int kMinLocalMapInliersAfterStage2 = 20;
+constexpr int kMinWeakInliers = 12;           // with a pose that agrees with the motion prediction
+constexpr double kWeakMaxDeviationM = 0.03;   // ... within this distance and angle of it
+constexpr double kWeakMaxDeviationRad = 2.0 * M_PI / 180;
+constexpr double kRecentlyLostS = 0.3;        // the motion model keeps predicting this long after a loss
+
+bool nearPrediction(const SE3& T_c_w, const SE3& predicted_T_c_w) {
+  const SE3 difference = T_c_w * predicted_T_c_w.inverse();
+  return (T_c_w.inverse().translation() - predicted_T_c_w.inverse().translation()).norm() <= kWeakMaxDeviationM &&
+         difference.rotationAngle() <= kWeakMaxDeviationRad;
+}
 constexpr double kMotionRadius = 7.0;      // pixels at level 0, frame-to-frame window
 constexpr double kLocalMapRadius = 3.0;    // RGB-D local-map window factor
 constexpr int kCloseTrackedNeeded = 100;   // "need close points" keyframe criterion
@@ -77,7 +87,12 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   }
 
   bool ok = false;
-  const bool had_motion = state_ == TrackingState::kOk && velocity_.has_value();
+  // Just lost (a crowd covered the view for a moment): the motion before the loss still predicts
+  // where to look, for kRecentlyLostS after the last tracked frame.
+  const bool recently_lost = state_ == TrackingState::kLost && frame.timestamp - last_frame_.timestamp <= kRecentlyLostS;
+  if (state_ == TrackingState::kLost && !recently_lost) velocity_.reset();
+  const bool had_motion = (state_ == TrackingState::kOk || recently_lost) && velocity_.has_value();
+  const SE3 predicted_T_c_w = motionOver(frame.timestamp - last_frame_.timestamp) * last_frame_.T_c_w;
   if (had_motion) {
     ok = trackWithMotionModel(frame);
     outcome.used_motion_model = ok;
@@ -89,6 +104,7 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     // fallback (and the only way without a database).
     if (relocaliser_) {
       const RelocalisationResult r = relocaliser_->relocalise(frame);
+      outcome.relocalisation = r;
       if (r.success) {
         ok = true;
         reference_keyframe_ = r.keyframe;
@@ -114,12 +130,23 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   else if (stage1_enabled_)
     applyStage1(frame, outcome);
   int inliers = 0;
-  if (ok || use_prediction) ok = trackLocalMap(frame, inliers);
+  const bool attempted = ok || use_prediction;
+  if (attempted) ok = trackLocalMap(frame, inliers);
+  // People covering most of the view may leave fewer static inliers than the usual bar. Such a
+  // pose is kept when it agrees with the motion prediction: losing the track would cost far more
+  // than a pose held by few points and the camera's own motion (counted as weak).
+  const auto weakButConsistent = [&] {
+    return had_motion && inliers >= kMinWeakInliers && nearPrediction(frame.T_c_w, predicted_T_c_w);
+  };
+  bool weak = false;
+  if (attempted && !ok && weakButConsistent()) ok = weak = true;
   if (ok && stage2_enabled_) {
     outcome.stage2_removed = applyStage2(frame);
     if (outcome.stage2_removed > 0) inliers = optimizeFramePose(frame);
-    ok = inliers >= kMinLocalMapInliersAfterStage2;
+    ok = inliers >= kMinLocalMapInliersAfterStage2 || (weak = weakButConsistent());
   }
+  if (ok && weak) ++weak_poses_;
+  outcome.weak = ok && weak;
   outcome.inliers = inliers;
   if (ok && !recovering && implausibleJump(frame)) {
     ok = false;
@@ -132,8 +159,9 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
       lost_since_ = frame.timestamp;
     }
     state_ = TrackingState::kLost;
-    velocity_.reset();
-    history_.clear();  // stage 1 must not compare with frames from before the gap
+    // The velocity stays for kRecentlyLostS (see above); stage 1 must not compare with frames
+    // from before the gap.
+    history_.clear();
     bool young = false;
     {
       std::shared_lock lock(map_.mutex());
@@ -151,7 +179,7 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   state_ = TrackingState::kOk;
   frame.has_pose = true;
   outcome.tracked = true;
-  if (recovering) {
+  if (recovering && !outcome.used_motion_model) {
     velocity_.reset();  // the last tracked frame lies before the gap
   } else {
     velocity_ = frame.T_c_w * last_frame_.T_c_w.inverse();

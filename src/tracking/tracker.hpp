@@ -42,6 +42,8 @@ struct TrackOutcome {
   int inliers = 0;                        // map-point inliers after local-map tracking
   bool used_motion_model = false;
   bool new_map = false;                   // this frame started a map of the atlas
+  bool weak = false;                      // tracked with few inliers that agreed with the motion prediction
+  std::optional<RelocalisationResult> relocalisation;  // when the relocaliser was asked
 };
 
 class Tracker {
@@ -63,6 +65,7 @@ class Tracker {
   int losses() const { return losses_; }                    // times tracking went from ok to lost
   int relocalisations() const { return relocalisations_; }  // times the relocaliser recovered it
   int implausibleJumps() const { return implausible_jumps_; }  // poses refused by tracking.max_speed_m_s
+  int weakPoses() const { return weak_poses_; }  // frames kept with few inliers near the prediction
   int mapsStarted() const { return maps_started_; }           // maps of the atlas this tracker started
   int initialisationsRefused() const { return initialisations_refused_; }  // frames too weak to start a map
   int activeMap() const { return active_map_; }               // -1 before the first map
@@ -146,6 +149,7 @@ class Tracker {
   int relocalisations_ = 0;
   int implausible_jumps_ = 0;
   int maps_started_ = 0;
+  int weak_poses_ = 0;
   int initialisations_refused_ = 0;
   int active_map_ = -1;         // the atlas map tracking works in (its live id after merges)
   Timestamp lost_since_ = 0;    // timestamp of the first lost frame of the current loss
