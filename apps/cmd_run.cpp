@@ -222,6 +222,8 @@ void runSequence(const RunArgs& args) {
   if (!args.quiet) {
     const auto& stats = report["statistics"];
     std::cout << "frames " << stats["counts"]["frames"] << ", tracked " << stats["counts"]["frames_tracked"]
+              << ", with a pose " << stats["counts"]["frames_with_pose"] << " (" << stats["counts"]["predicted_poses"]
+              << " predicted)"
               << " (main map " << stats["atlas"]["frames_in_main_map"] << ", maps " << stats["atlas"]["maps"].size()
               << ", merges " << stats["atlas"]["merges"] << ")"
               << ", keyframes " << stats["counts"]["keyframes"] << ", map points " << stats["counts"]["map_points"]

@@ -55,6 +55,7 @@ void TrackingOptions::validate() const {
   requireInRange(s, "keyframe_still_rotation_deg", keyframe_still_rotation_deg, 0.0, keyframe_rotation_deg);
   requireInRange(s, "local_map_keyframes", local_map_keyframes, 1, 1000);
   requireInRange(s, "depth_baseline", depth_baseline, 0.001, 10.0);
+  requireInRange(s, "predict_through_loss_s", predict_through_loss_s, 0.0, 5.0);
 }
 
 void MappingOptions::validate() const {

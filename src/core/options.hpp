@@ -82,6 +82,10 @@ struct TrackingOptions {
   // Re-read keypoint depths where the depth camera saw them when the depth image is not taken at
   // the RGB image's time (map::compensateDepthDelay), using the constant-velocity motion.
   bool compensate_depth_delay = true;
+  // When tracking fails (people covering the view, a covered lens), frames up to this long after
+  // the last tracked one get the constant-velocity prediction as their pose (report: "predicted"),
+  // and the motion model keeps looking where that prediction says; 0 = off.
+  double predict_through_loss_s = 0.3;
 
   static constexpr const char* kSection = "tracking";
   template <class V> void fields(V& v) {
@@ -95,6 +99,7 @@ struct TrackingOptions {
     v("keyframe_still_rotation_deg", keyframe_still_rotation_deg);
     v("local_map_keyframes", local_map_keyframes); v("depth_baseline", depth_baseline);
     v("still_camera_hypothesis", still_camera_hypothesis); v("compensate_depth_delay", compensate_depth_delay);
+    v("predict_through_loss_s", predict_through_loss_s);
   }
   void validate() const;
 };

@@ -208,6 +208,7 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   stats.motion_model = outcome.used_motion_model;
   stats.new_map = outcome.new_map;
   stats.weak = outcome.weak;
+  stats.predicted = outcome.predicted;
   if (outcome.relocalisation) {
     const tracking::RelocalisationResult& r = *outcome.relocalisation;
     stats.reloc_candidates = r.candidates;
@@ -216,7 +217,7 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
     stats.reloc_inliers = r.success ? r.inliers : r.best_inliers;
   }
   stats.timestamp = timestamp;
-  if (outcome.tracked && !tracker_.records().empty()) stats.map = tracker_.records().back().map_id;
+  if ((outcome.tracked || outcome.predicted) && !tracker_.records().empty()) stats.map = tracker_.records().back().map_id;
 
   if (outcome.new_keyframe != nullptr) {
     stats.keyframe = true;
@@ -444,25 +445,28 @@ nlohmann::json SlamSystem::statistics() const {
                          {"tracking_ms", f.extraction_ms + f.tracking_ms}, {"tracked", f.tracked},
                          {"keyframe", f.keyframe}, {"inliers", f.inliers}, {"motion_model", f.motion_model},
                          {"timestamp", f.timestamp}, {"map", f.map}, {"new_map", f.new_map},
-                         {"weak", f.weak}});
+                         {"weak", f.weak}, {"predicted", f.predicted}});
     if (f.reloc_candidates >= 0)
       per_frame.back()["relocalisation"] = {{"candidates", f.reloc_candidates}, {"best_matches", f.reloc_matches},
                                             {"best_pnp_inliers", f.reloc_pnp_inliers},
                                             {"best_inliers", f.reloc_inliers}};
   }
-  size_t tracked = 0;
+  size_t with_pose = 0, tracked = 0;
   for (const auto& r : tracker_.records())
-    if (r.reference != nullptr) ++tracked;
+    if (r.reference != nullptr) ++with_pose;
+  for (const FrameStats& f : frames_) tracked += f.tracked;
   nlohmann::json j;
   {
     std::shared_lock lock(map_.mutex());
     j["counts"] = {{"frames", frames_.size()},
-                   {"frames_tracked", tracked},
+                   {"frames_tracked", tracked},      // by features, in any map
+                   {"frames_with_pose", with_pose},  // tracked or predicted, in any map
                    {"frames_lost", tracker_.lostFrames()},
                    {"tracking_losses", tracker_.losses()},
                    {"relocalisations", tracker_.relocalisations()},
                    {"implausible_jumps_refused", tracker_.implausibleJumps()},
                    {"weak_poses", tracker_.weakPoses()},
+                   {"predicted_poses", tracker_.predictedPoses()},
                    {"keyframes", map_.keyframeCount()},
                    {"keyframes_created", map_.allKeyframes().size()},
                    {"map_points", map_.pointCount()}};

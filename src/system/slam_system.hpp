@@ -68,6 +68,7 @@ struct FrameStats {
   bool motion_model = false;  // the first estimate came from the constant-velocity prediction
   bool new_map = false;       // the frame started a map of the atlas
   bool weak = false;          // tracked with few inliers that agreed with the motion prediction
+  bool predicted = false;     // not tracked: the motion prediction is its pose (tracking.predict_through_loss_s)
   // Relocalisation attempt on this frame (lost): candidates tried, best descriptor matches, PnP
   // inliers, pose inliers (-1: not attempted).
   int reloc_candidates = -1, reloc_matches = -1, reloc_pnp_inliers = -1, reloc_inliers = -1;

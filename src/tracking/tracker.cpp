@@ -21,7 +21,6 @@ constexpr int kMinLocalMapInliersAfterStage2 = 20;
 constexpr int kMinWeakInliers = 12;           // with a pose that agrees with the motion prediction
 constexpr double kWeakMaxDeviationM = 0.03;   // ... within this distance and angle of it
 constexpr double kWeakMaxDeviationRad = 2.0 * M_PI / 180;
-constexpr double kRecentlyLostS = 0.3;        // the motion model keeps predicting this long after a loss
 
 bool nearPrediction(const SE3& T_c_w, const SE3& predicted_T_c_w) {
   const SE3 difference = T_c_w * predicted_T_c_w.inverse();
@@ -89,7 +88,8 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   bool ok = false;
   // Just lost (a crowd covered the view for a moment): the motion before the loss still predicts
   // where to look, for kRecentlyLostS after the last tracked frame.
-  const bool recently_lost = state_ == TrackingState::kLost && frame.timestamp - last_frame_.timestamp <= kRecentlyLostS;
+  const bool recently_lost = state_ == TrackingState::kLost &&
+                             frame.timestamp - last_frame_.timestamp <= options_.tracking.predict_through_loss_s;
   if (state_ == TrackingState::kLost && !recently_lost) velocity_.reset();
   const bool had_motion = (state_ == TrackingState::kOk || recently_lost) && velocity_.has_value();
   const SE3 predicted_T_c_w = motionOver(frame.timestamp - last_frame_.timestamp) * last_frame_.T_c_w;
@@ -167,9 +167,27 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
       std::shared_lock lock(map_.mutex());
       young = map_.keyframeCount(active_map_) < static_cast<size_t>(options_.atlas.young_map_keyframes);
     }
-    if (shouldStartNewMap(frame, young)) {
+    // A short loss (people passing close, a hand over the lens) is bridged by the motion
+    // prediction; a new map only starts when that is over (or the map is too young to wait for).
+    const bool predict = had_motion && reference_keyframe_ != nullptr &&
+                         frame.timestamp - last_frame_.timestamp <= options_.tracking.predict_through_loss_s;
+    if ((!predict || young) && shouldStartNewMap(frame, young)) {
       resetForNewMap();
       if (initialize(frame, outcome, young ? "young map lost" : "lost")) return outcome;
+    }
+    if (predict) {
+      frame.clearMatches();
+      frame.T_c_w = predicted_T_c_w;
+      frame.has_pose = true;
+      SE3 T_c_r;
+      {
+        std::shared_lock lock(map_.mutex());
+        T_c_r = frame.T_c_w * map::keyframeTcw(reference_keyframe_).inverse();
+      }
+      records_.push_back({frame.id, frame.timestamp, reference_keyframe_, T_c_r, active_map_});
+      ++predicted_poses_;
+      outcome.predicted = true;
+      return outcome;
     }
     ++lost_frames_;
     records_.push_back({frame.id, frame.timestamp, nullptr, SE3(), -1});

@@ -43,6 +43,7 @@ struct TrackOutcome {
   bool used_motion_model = false;
   bool new_map = false;                   // this frame started a map of the atlas
   bool weak = false;                      // tracked with few inliers that agreed with the motion prediction
+  bool predicted = false;                 // not tracked, but given the motion prediction as its pose
   std::optional<RelocalisationResult> relocalisation;  // when the relocaliser was asked
 };
 
@@ -66,6 +67,7 @@ class Tracker {
   int relocalisations() const { return relocalisations_; }  // times the relocaliser recovered it
   int implausibleJumps() const { return implausible_jumps_; }  // poses refused by tracking.max_speed_m_s
   int weakPoses() const { return weak_poses_; }  // frames kept with few inliers near the prediction
+  int predictedPoses() const { return predicted_poses_; }  // lost frames given the motion prediction
   int mapsStarted() const { return maps_started_; }           // maps of the atlas this tracker started
   int initialisationsRefused() const { return initialisations_refused_; }  // frames too weak to start a map
   int activeMap() const { return active_map_; }               // -1 before the first map
@@ -150,6 +152,7 @@ class Tracker {
   int implausible_jumps_ = 0;
   int maps_started_ = 0;
   int weak_poses_ = 0;
+  int predicted_poses_ = 0;
   int initialisations_refused_ = 0;
   int active_map_ = -1;         // the atlas map tracking works in (its live id after merges)
   Timestamp lost_since_ = 0;    // timestamp of the first lost frame of the current loss

@@ -111,6 +111,7 @@ TEST(TrackerSpeedGate, DefaultLimitTracksTheSequenceLowLimitRefusesIt) {
   SystemOptions slow = baseOptions();
   slow.tracking.max_speed_m_s = 0.01;  // the lowest allowed
   slow.atlas.enabled = false;  // the refused frame stays lost (the atlas would start a map there)
+  slow.tracking.predict_through_loss_s = 0;
   Rig rig(slow);
   map::Frame first = rig.render(path[0].T_w_c, path[0].timestamp, 0);
   ASSERT_TRUE(rig.track(first).tracked);  // initialisation: no previous frame to compare with
@@ -131,6 +132,7 @@ TEST(TrackerSpeedGate, DefaultLimitTracksTheSequenceLowLimitRefusesIt) {
 TEST(TrackerSpeedGate, RefusesAPoseJumpInOneFrameButNotOverHalfASecond) {
   SystemOptions options = baseOptions();
   options.atlas.enabled = false;  // the refused frame stays lost (the atlas would start a map there)
+  options.tracking.predict_through_loss_s = 0;  // ... and keeps the refused pose (not the prediction)
   const Trajectory path = sim::sweepPath(kSpeedFrames, options.camera.fps);
   const StampedPose& last = path.back();
   const SE3 T_w_jump(last.T_w_c.rotation(), last.T_w_c.translation() + last.T_w_c.rotation() * Vec3(0.3, 0.0, 0.0));
