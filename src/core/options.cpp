@@ -56,6 +56,8 @@ void TrackingOptions::validate() const {
   requireInRange(s, "local_map_keyframes", local_map_keyframes, 1, 1000);
   requireInRange(s, "depth_baseline", depth_baseline, 0.001, 10.0);
   requireInRange(s, "predict_through_loss_s", predict_through_loss_s, 0.0, 5.0);
+  requireInRange(s, "crowded_view_share", crowded_view_share, 0.0, 1.0);
+  requireInRange(s, "crowded_keyframe_spacing", crowded_keyframe_spacing, 0, max_frames_between_keyframes);
 }
 
 void MappingOptions::validate() const {

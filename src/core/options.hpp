@@ -86,6 +86,12 @@ struct TrackingOptions {
   // the last tracked one get the constant-velocity prediction as their pose (report: "predicted"),
   // and the motion model keeps looking where that prediction says; 0 = off.
   double predict_through_loss_s = 0.3;
+  // A view with at least crowded_view_share of its features in the dynamic mask (close walkers)
+  // gets at most one keyframe per crowded_keyframe_spacing frames: its pose can drift with
+  // walkers' unmasked limbs, and a keyframe per frame maps them and anchors the drift (Bonn
+  // crowd, t = 18.8-19.5 s: a keyframe at every frame, poses 0.3-0.4 m off). 0 = no limit.
+  double crowded_view_share = 0.5;
+  int crowded_keyframe_spacing = 5;
 
   static constexpr const char* kSection = "tracking";
   template <class V> void fields(V& v) {
@@ -99,7 +105,8 @@ struct TrackingOptions {
     v("keyframe_still_rotation_deg", keyframe_still_rotation_deg);
     v("local_map_keyframes", local_map_keyframes); v("depth_baseline", depth_baseline);
     v("still_camera_hypothesis", still_camera_hypothesis); v("compensate_depth_delay", compensate_depth_delay);
-    v("predict_through_loss_s", predict_through_loss_s);
+    v("predict_through_loss_s", predict_through_loss_s); v("crowded_view_share", crowded_view_share);
+    v("crowded_keyframe_spacing", crowded_keyframe_spacing);
   }
   void validate() const;
 };

@@ -110,8 +110,8 @@ class Tracker {
   bool needKeyframe(const map::Frame& frame, int inliers, bool mapping_idle, int mapping_backlog) const;
   // Null when the mask leaves the frame too little to map (see kMinKeyframeObservations).
   map::Keyframe* createKeyframe(map::Frame& frame, int inliers);
-  // The feature status a keyframe of `frame` maps with: the mapping margin around the mask,
-  // narrowed (to none) when it leaves too little; nothing when even that is too little.
+  // The feature status a keyframe of `frame` maps with (nothing within the mapping margin of the
+  // mask); nothing when that leaves too little (fewer points accepted when tracking starves).
   std::optional<std::vector<map::FeatureStatus>> mappableStatus(const map::Frame& frame, int inliers) const;
   cv::Mat halfDepthFor(const map::Frame& frame) const;
   void createDepthPoints(map::Frame& frame, const std::vector<map::FeatureStatus>& status, map::Keyframe* kf);  // exclusive lock held

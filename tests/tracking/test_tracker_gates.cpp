@@ -172,6 +172,7 @@ constexpr int kMarginPx = 40;
 SystemOptions keyframeEveryFrameOptions() {
   SystemOptions o = baseOptions();
   o.tracking.keyframe_translation = 0.0;
+  o.tracking.crowded_keyframe_spacing = 0;  // these tests cover wide masks: no crowded-view spacing
   o.tracking.keyframe_still_translation = 0.0;
   o.tracking.keyframe_still_rotation_deg = 0.0;
   return o;
@@ -204,8 +205,9 @@ struct MarginResult {
 // Tracks frames 0..4 of the sweep path, then frame 5 with mask columns [from, to) and the given
 // margin. masked_status: the status given to the features in the mask (kStatic: stage 1 found
 // them static, as it does with a late mask where the people left).
-MarginResult runMargin(int from, int to, int margin, map::FeatureStatus masked_status) {
-  const SystemOptions options = keyframeEveryFrameOptions();
+MarginResult runMargin(int from, int to, int margin, map::FeatureStatus masked_status, int crowded_spacing = 0) {
+  SystemOptions options = keyframeEveryFrameOptions();
+  options.tracking.crowded_keyframe_spacing = crowded_spacing;
   const Trajectory path = sim::sweepPath(kMarginFrames, options.camera.fps);
   Rig rig(options);
   MarginResult r;
@@ -281,20 +283,17 @@ TEST(TrackerMappingMargin, WithoutMarginFeaturesBesideTheMaskAreMapped) {
   EXPECT_GE(r.far_mapped, 100);
 }
 
-// The mask covers all but the right 60 px (its features stay static: stage 1 found them so, and the
-// frame is tracked with them); the full margin would leave a 20 px strip, fewer than 100 mappable
-// features. The map must keep growing in a crowd: the margin narrows until enough is left, here
-// to none, so the keyframe is made and maps the verified features inside the mask too.
+// The mask covers all but the right 60 px (its features stay static: the frame is tracked with
+// them), the margin leaves a 20 px strip: fewer than 100 mappable features, so no keyframe.
 constexpr int kWideTo = 580;
 
-TEST(TrackerMappingMargin, MarginNarrowsWhenTheFullOneLeavesTooLittleToMap) {
+TEST(TrackerMappingMargin, NoKeyframeWhenTheMarginLeavesTooLittleToMap) {
   const MarginResult r = runMargin(0, kWideTo, kMarginPx, map::FeatureStatus::kStatic);
   ASSERT_GE(r.features, 300);
   EXPECT_TRUE(r.outcome.tracked);
   EXPECT_GT(r.outcome.inliers, 100);
-  ASSERT_NE(r.outcome.new_keyframe, nullptr);
-  EXPECT_EQ(r.keyframes_after, r.keyframes_before + 1);
-  EXPECT_GE(r.near_mapped, 1) << "features beside the mask are mapped once the margin narrowed";
+  EXPECT_EQ(r.outcome.new_keyframe, nullptr);
+  EXPECT_EQ(r.keyframes_after, r.keyframes_before);
 }
 
 TEST(TrackerMappingMargin, SameFrameWithoutMarginMakesAKeyframe) {
@@ -302,6 +301,18 @@ TEST(TrackerMappingMargin, SameFrameWithoutMarginMakesAKeyframe) {
   EXPECT_TRUE(r.outcome.tracked);
   EXPECT_NE(r.outcome.new_keyframe, nullptr);
   EXPECT_EQ(r.keyframes_after, r.keyframes_before + 1);
+}
+
+// Crowded view (tracking.crowded_keyframe_spacing): the same frame, the mask covering most of its
+// features, one frame after the last keyframe: no keyframe while the spacing is not reached.
+TEST(TrackerCrowdedView, NoKeyframeRightAfterTheLastWhenTheMaskCoversMostFeatures) {
+  const MarginResult r = runMargin(0, kWideTo, 0, map::FeatureStatus::kStatic, 5);
+  EXPECT_TRUE(r.outcome.tracked);
+  EXPECT_EQ(r.outcome.new_keyframe, nullptr);
+  EXPECT_EQ(r.keyframes_after, r.keyframes_before);
+  // A narrow mask is no crowd: the keyframe is made.
+  const MarginResult narrow = runMargin(kStripFrom, kStripTo, 0, map::FeatureStatus::kDynamicMask, 5);
+  EXPECT_NE(narrow.outcome.new_keyframe, nullptr);
 }
 
 }  // namespace
