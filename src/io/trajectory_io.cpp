@@ -37,42 +37,49 @@ Trajectory readTumTrajectory(const std::filesystem::path& path) {
   return trajectory;
 }
 
-void writeTumTrajectory(const std::filesystem::path& path, const Trajectory& trajectory) {
+namespace {
+// Writes a temporary file then renames it, so an interrupted run never leaves half a file.
+// write_rows(f) prints the header and rows.
+template <class WriteRows>
+void writeTrajectoryFile(const std::filesystem::path& path, WriteRows write_rows) {
   if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
-  // Write to a temporary file then rename, so an interrupted run never leaves half a file.
   const std::filesystem::path tmp = path.string() + ".tmp";
   {
     std::FILE* f = std::fopen(tmp.c_str(), "w");
     if (f == nullptr) throw InputError("cannot write trajectory file " + path.string() + ": check permissions");
-    std::fprintf(f, "# timestamp tx ty tz qx qy qz qw (world-from-camera)\n");
-    for (const auto& sp : trajectory) {
-      const Quat& q = sp.T_w_c.quaternion();
-      const Vec3& t = sp.T_w_c.translation();
-      std::fprintf(f, "%.6f %.9f %.9f %.9f %.9f %.9f %.9f %.9f\n", sp.timestamp, t.x(), t.y(), t.z(), q.x(), q.y(),
-                   q.z(), q.w());
-    }
+    write_rows(f);
     if (std::fclose(f) != 0) throw InputError("failed writing trajectory file " + tmp.string());
   }
   std::filesystem::rename(tmp, path);
 }
 
+// TUM's eight columns (no line end).
+void printPose(std::FILE* f, Timestamp timestamp, const SE3& T_w_c) {
+  const Quat& q = T_w_c.quaternion();
+  const Vec3& t = T_w_c.translation();
+  std::fprintf(f, "%.6f %.9f %.9f %.9f %.9f %.9f %.9f %.9f", timestamp, t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
+}
+}  // namespace
+
+void writeTumTrajectory(const std::filesystem::path& path, const Trajectory& trajectory) {
+  writeTrajectoryFile(path, [&](std::FILE* f) {
+    std::fprintf(f, "# timestamp tx ty tz qx qy qz qw (world-from-camera)\n");
+    for (const auto& sp : trajectory) {
+      printPose(f, sp.timestamp, sp.T_w_c);
+      std::fprintf(f, "\n");
+    }
+  });
+}
+
 void writeAtlasTrajectory(const std::filesystem::path& path, const AtlasTrajectory& trajectory) {
-  if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
-  const std::filesystem::path tmp = path.string() + ".tmp";
-  {
-    std::FILE* f = std::fopen(tmp.c_str(), "w");
-    if (f == nullptr) throw InputError("cannot write trajectory file " + path.string() + ": check permissions");
+  writeTrajectoryFile(path, [&](std::FILE* f) {
     std::fprintf(f, "# timestamp tx ty tz qx qy qz qw map world_map (world-from-camera in world_map's world;\n"
                     "# map: the atlas map the frame was tracked in, world_map: the map it was merged into or itself)\n");
     for (const auto& sp : trajectory) {
-      const Quat& q = sp.T_w_c.quaternion();
-      const Vec3& t = sp.T_w_c.translation();
-      std::fprintf(f, "%.6f %.9f %.9f %.9f %.9f %.9f %.9f %.9f %d %d\n", sp.timestamp, t.x(), t.y(), t.z(), q.x(),
-                   q.y(), q.z(), q.w(), sp.map, sp.world_map);
+      printPose(f, sp.timestamp, sp.T_w_c);
+      std::fprintf(f, " %d %d\n", sp.map, sp.world_map);
     }
-    if (std::fclose(f) != 0) throw InputError("failed writing trajectory file " + tmp.string());
-  }
-  std::filesystem::rename(tmp, path);
+  });
 }
 
 }  // namespace desslam::io

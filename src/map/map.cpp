@@ -84,7 +84,11 @@ void Map::mergeMap(int from, int into, const SE3& T_into_from, Timestamp merged_
   record.merged_into = into;
   record.T_into_this = T_into_from;
   record.merged_at = merged_at;
-  ++merge_count_;
+}
+
+size_t Map::mergeCount() const {
+  return static_cast<size_t>(std::count_if(maps_.begin(), maps_.end(),
+                                           [](const auto& entry) { return entry.second.merged_into >= 0; }));
 }
 
 MapPoint* Map::createPoint(const Vec3& position, Keyframe* reference) {

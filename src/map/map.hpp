@@ -59,8 +59,7 @@ class Map {
   std::vector<MapRecord> mapRecords() const;     // by id
   int liveMap(int map_id) const;                 // the map `map_id` ended up in after merges
   size_t keyframeCount(int map_id) const;        // good keyframes of a live map
-  // Merges so far (a counter; tracking compares it to notice a merge during a frame).
-  uint64_t mergeCount() const { return merge_count_; }
+  size_t mergeCount() const;                     // maps merged into another so far
 
  private:
   mutable std::shared_mutex mutex_;
@@ -75,7 +74,6 @@ class Map {
   std::map<int, size_t> good_keyframes_per_map_;
   std::map<int, size_t> keyframes_created_per_map_;
   int next_map_id_ = 0;
-  uint64_t merge_count_ = 0;
   MapRecord& recordOf(int map_id);  // registers an unknown id ("implicit")
 };
 

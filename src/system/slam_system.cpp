@@ -269,19 +269,16 @@ void SlamSystem::pushDenseKeyframe(const map::Keyframe* kf, const map::Frame& fr
     for (const map::Keyframe* other : map_.allKeyframes())
       if (other != kf) poses.emplace(other->id, map::keyframeTcw(other).inverse());
     // The dense map has one world: that of the map its first keyframe came from. Keyframes of
-    // other maps wait until a merge brings their map into that world.
+    // other maps wait until a merge brings their map into that world (merges relabel map_id).
     if (dense_world_map_ < 0) dense_world_map_ = kf->map_id;
     const int world = map_.liveMap(dense_world_map_);
-    dense_held_.push_back({kf->map_id, std::move(dense_kf)});
+    dense_held_.push_back({kf, std::move(dense_kf)});
     for (auto it = dense_held_.begin(); it != dense_held_.end();) {
-      if (map_.liveMap(it->first) != world) {
+      if (it->first->map_id != world) {
         ++it;
         continue;
       }
-      const map::Keyframe* held = nullptr;
-      for (const map::Keyframe* k : map_.allKeyframes())  // few held keyframes: linear is fine
-        if (k->id == it->second->keyframe_id) held = k;
-      if (held != nullptr) it->second->T_w_c = map::keyframeTcw(held).inverse();
+      it->second->T_w_c = map::keyframeTcw(it->first).inverse();
       ready.push_back(std::move(it->second));
       it = dense_held_.erase(it);
     }
@@ -358,8 +355,6 @@ nlohmann::json SlamSystem::atlasJson() const {
     if (!inserted) it->second.second = r.timestamp;
   }
   std::shared_lock lock(map_.mutex());
-  std::map<int, size_t> keyframes_made;
-  for (const map::Keyframe* kf : map_.allKeyframes()) ++keyframes_made[kf->map_id];
   nlohmann::json maps = nlohmann::json::array();
   int merges = 0;
   for (const map::MapRecord& m : map_.mapRecords()) {
@@ -556,8 +551,8 @@ nlohmann::json SlamSystem::exportDenseMap(const std::filesystem::path& out_dir, 
   if (main_map != world) {
     main_dense = std::make_unique<dense::DenseMappingThread>(options_.dense, camera_, QueueFullPolicy::kBlock);
     std::shared_lock lock(map_.mutex());
-    for (const auto& [map_id, held] : dense_held_) {
-      if (map_.liveMap(map_id) != main_map) continue;
+    for (const auto& [keyframe, held] : dense_held_) {
+      if (keyframe->map_id != main_map) continue;
       auto copy = std::make_shared<dense::DenseKeyframe>(*held);
       copy->T_w_c = poses.at(copy->keyframe_id);
       main_dense->push(std::move(copy));

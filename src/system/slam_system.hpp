@@ -150,10 +150,11 @@ class SlamSystem {
   bool carriesMasks() const { return settings_.realtime || settings_.mask_latency_frames > 0; }
 
   // Dense keyframes of maps not (yet) merged into the dense map's world (tracking thread only),
-  // with the map they were made in; at most kMaxHeldDenseKeyframes (the oldest are dropped).
+  // with their keyframe (its map_id, read under the Map lock, follows merges); at most
+  // kMaxHeldDenseKeyframes (the oldest are dropped).
   static constexpr size_t kMaxHeldDenseKeyframes = 300;
   int dense_world_map_ = -1;
-  std::vector<std::pair<int, std::shared_ptr<dense::DenseKeyframe>>> dense_held_;
+  std::vector<std::pair<const map::Keyframe*, std::shared_ptr<dense::DenseKeyframe>>> dense_held_;
   size_t dense_held_dropped_ = 0;
 
   std::vector<FrameStats> frames_;
