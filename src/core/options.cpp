@@ -77,6 +77,7 @@ void DynamicOptions::validate() const {
   requireInRange(s, "mask_dilation_px", mask_dilation_px, 0, 100);
   requireInRange(s, "carried_mask_growth_px", carried_mask_growth_px, 0, 100);
   requireInRange(s, "carried_mask_max_growth_px", carried_mask_max_growth_px, 0, 300);
+  requireInRange(s, "carried_mask_min_outside_share", carried_mask_min_outside_share, 0.0, 1.0);
   requireInRange(s, "mapping_margin_px", mapping_margin_px, 0, 300);
   requireInRange(s, "stage1_search_radius_px", stage1_search_radius_px, 1.0, 200.0);
   requireInRange(s, "stage1_max_descriptor_distance", stage1_max_descriptor_distance, 0, 256);

@@ -86,6 +86,11 @@ struct TrackingOptions {
   // the last tracked one get the constant-velocity prediction as their pose (report: "predicted"),
   // and the motion model keeps looking where that prediction says; 0 = off.
   double predict_through_loss_s = 0.3;
+  // While lost (after the prediction above, and when relocalisation found nothing), each frame is
+  // also searched against the local map around the last tracked pose, with the full inlier bar:
+  // people walking past a camera that keeps looking at the same place leave too few features for
+  // the BoW search, but a projection search still finds the static ones.
+  bool search_last_pose_when_lost = true;
   // A view with at least crowded_view_share of its features in the dynamic mask (close walkers)
   // gets at most one keyframe per crowded_keyframe_spacing frames: its pose can drift with
   // walkers' unmasked limbs, and a keyframe per frame maps them and anchors the drift (Bonn
@@ -106,6 +111,7 @@ struct TrackingOptions {
     v("local_map_keyframes", local_map_keyframes); v("depth_baseline", depth_baseline);
     v("still_camera_hypothesis", still_camera_hypothesis); v("compensate_depth_delay", compensate_depth_delay);
     v("predict_through_loss_s", predict_through_loss_s); v("crowded_view_share", crowded_view_share);
+    v("search_last_pose_when_lost", search_last_pose_when_lost);
     v("crowded_keyframe_spacing", crowded_keyframe_spacing);
   }
   void validate() const;
@@ -148,6 +154,12 @@ struct DynamicOptions {
   // catches the parts of walkers that left an old mask). Bonn crowd with emulated latencies
   // (3-10 frames, deterministic): cap 36 px -> ATE 0.030 m at 5 frames, cap 24 px -> 0.084 m.
   int carried_mask_max_growth_px = 36;
+  // ... but the growth is a guess, and in a crowd it can cover the whole view (Bonn crowd in real
+  // time: 97-100 % of the features in a mask 4-6 frames old, tracking lost for up to 0.6 s). The
+  // growth shrinks (in steps of carried_mask_growth_px, down to none) until at least this share
+  // of the frame's ORB features lies outside the mask; the free-space test and the mapping margin
+  // still guard what the smaller mask lets in. 0 = always the full growth.
+  double carried_mask_min_outside_share = 0.15;
   // A keyframe maps nothing within this many more pixels of the (dilated) mask; the frame itself
   // is still tracked with those features: track liberally, map conservatively. The network
   // misses legs and arms, and a late (real-time) mask lags behind the people. A keyframe left with
@@ -190,6 +202,7 @@ struct DynamicOptions {
     v("mode", mode); v("stage1_threshold", stage1_threshold); v("stage2_threshold", stage2_threshold);
     v("mask_dilation_px", mask_dilation_px); v("carried_mask_growth_px", carried_mask_growth_px);
     v("carried_mask_max_growth_px", carried_mask_max_growth_px);
+    v("carried_mask_min_outside_share", carried_mask_min_outside_share);
     v("mapping_margin_px", mapping_margin_px);
     v("stage1_search_radius_px", stage1_search_radius_px);
     v("stage1_max_descriptor_distance", stage1_max_descriptor_distance);

@@ -16,10 +16,6 @@ void requireMask(const cv::Mat& mask, const char* what) {
     throw InputError(std::string(what) + ": expected a non-empty CV_8U single-channel mask (nonzero = dynamic)");
 }
 
-cv::Mat ellipse(int radius_px) {
-  return cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * radius_px + 1, 2 * radius_px + 1));
-}
-
 }  // namespace
 
 cv::Mat dilateMask(const cv::Mat& mask, int radius_px) {
@@ -34,6 +30,34 @@ cv::Mat dilateMask(const cv::Mat& mask, int radius_px) {
   cv::Mat distance;
   cv::distanceTransform(mask == 0, distance, cv::DIST_L2, cv::DIST_MASK_PRECISE);
   return distance <= static_cast<float>(radius_px) + 1e-3f;
+}
+
+GrownMask dilateMaskLeavingFeatures(const cv::Mat& mask, const std::vector<cv::KeyPoint>& keypoints, int base_px,
+                                    int growth_px, int step_px, double min_outside_share) {
+  requireMask(mask, "dilateMaskLeavingFeatures");
+  if (base_px < 0 || growth_px < 0)
+    throw InputError("dilateMaskLeavingFeatures: negative radius " + std::to_string(base_px) + " + " +
+                     std::to_string(growth_px));
+  cv::Mat distance;  // to the nearest mask pixel (0 on it)
+  cv::distanceTransform(mask == 0, distance, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  std::vector<float> at_keypoints;
+  at_keypoints.reserve(keypoints.size());
+  for (const cv::KeyPoint& kp : keypoints) {
+    const int x = std::clamp(cvRound(kp.pt.x), 0, mask.cols - 1), y = std::clamp(cvRound(kp.pt.y), 0, mask.rows - 1);
+    at_keypoints.push_back(distance.at<float>(y, x));
+  }
+  const double wanted = min_outside_share * static_cast<double>(keypoints.size());
+  int growth = growth_px;
+  while (growth > 0) {
+    const float radius = static_cast<float>(base_px + growth) + 1e-3f;
+    const auto outside = std::count_if(at_keypoints.begin(), at_keypoints.end(), [&](float d) { return d > radius; });
+    if (static_cast<double>(outside) >= wanted) break;
+    growth = step_px > 0 ? std::max(0, growth - step_px) : 0;
+  }
+  GrownMask grown;
+  grown.radius_px = base_px + growth;
+  grown.mask = distance <= static_cast<float>(grown.radius_px) + 1e-3f;
+  return grown;
 }
 
 std::vector<uint8_t> featuresInMask(const map::FeatureSet& features, const cv::Mat& mask) {

@@ -96,7 +96,7 @@ SlamSystem::SlamSystem(const SystemOptions& options, const RunSettings& settings
 
 SlamSystem::~SlamSystem() { finish(); }
 
-cv::Mat SlamSystem::maskFor(uint64_t frame_id, FrameStats& stats) {
+cv::Mat SlamSystem::maskFor(uint64_t frame_id, const std::vector<cv::KeyPoint>& keypoints, FrameStats& stats) {
   last_labels_ = cv::Mat();
   if (!semantic_) return {};
   const auto wait_start = std::chrono::steady_clock::now();
@@ -130,9 +130,12 @@ cv::Mat SlamSystem::maskFor(uint64_t frame_id, FrameStats& stats) {
     last_labels_ = cv::Mat();
   }
   if (mask.empty()) return {};
-  const int age = std::max(0, stats.mask_age);
-  const int growth = std::min(age * options_.dynamic.carried_mask_growth_px, options_.dynamic.carried_mask_max_growth_px);
-  return dynamic::dilateMask(mask, options_.dynamic.mask_dilation_px + growth);
+  const DynamicOptions& d = options_.dynamic;
+  const int growth = std::min(std::max(0, stats.mask_age) * d.carried_mask_growth_px, d.carried_mask_max_growth_px);
+  dynamic::GrownMask grown = dynamic::dilateMaskLeavingFeatures(mask, keypoints, d.mask_dilation_px, growth,
+                                                               d.carried_mask_growth_px, d.carried_mask_min_outside_share);
+  stats.mask_radius_px = grown.radius_px;
+  return grown.mask;
 }
 
 int SlamSystem::topUpOutsideMask(const cv::Mat& gray, const cv::Mat& mask, std::vector<cv::KeyPoint>& keypoints,
@@ -169,7 +172,7 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   if (carriesMasks() && semantic_) mask_propagator_.addFrame(frame_id, gray);
   stats.extraction_ms = millisecondsSince(start);
 
-  const cv::Mat dynamic_mask = maskFor(frame_id, stats);
+  const cv::Mat dynamic_mask = maskFor(frame_id, keypoints, stats);
   if (!dynamic_mask.empty()) {
     const auto topup_start = std::chrono::steady_clock::now();
     stats.features_added_outside_mask = topUpOutsideMask(gray, dynamic_mask, keypoints, descriptors);
@@ -433,7 +436,7 @@ nlohmann::json SlamSystem::statistics() const {
     else ++no_mask;
     per_frame.push_back({{"features", f.features}, {"in_mask", f.in_mask}, {"semantic_removed", f.semantic_removed},
                          {"stage1_checked", f.stage1_checked}, {"stage1_removed", f.stage1_removed},
-                         {"stage2_removed", f.stage2_removed}, {"mask_age", f.mask_age},
+                         {"stage2_removed", f.stage2_removed}, {"mask_age", f.mask_age}, {"mask_radius_px", f.mask_radius_px},
                          {"features_added_outside_mask", f.features_added_outside_mask},
                          {"free_space_removed", f.free_space_removed},
                          {"fresh_mask", f.mask_age == 0}, {"segmentation_ms", f.segmentation_ms},

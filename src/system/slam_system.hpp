@@ -59,6 +59,7 @@ struct FrameStats {
   double total_ms = 0;       // the whole processFrame call
   double segmentation_ms = -1;  // network time of the mask used (-1: none)
   int mask_age = -1;         // frames between the mask's frame and this one (0 = fresh, -1 = no mask)
+  int mask_radius_px = -1;   // dilation (+ growth of a carried mask) applied to it
   int features_added_outside_mask = 0;  // extra features on the background (a mask covered most)
   int features = 0, in_mask = 0, semantic_removed = 0, stage1_checked = 0, stage1_removed = 0, stage2_removed = 0;
   int free_space_removed = 0;  // of stage1_removed: the free-space test outside the mask
@@ -108,7 +109,7 @@ class SlamSystem {
 
  private:
   // The dilated mask of dynamic classes for this frame, and its provenance.
-  cv::Mat maskFor(uint64_t frame_id, FrameStats& stats);
+  cv::Mat maskFor(uint64_t frame_id, const std::vector<cv::KeyPoint>& keypoints, FrameStats& stats);
   // Extracts more features outside `mask` when fewer than dynamic.min_features_outside_mask lie
   // there, appending them; returns how many were added.
   int topUpOutsideMask(const cv::Mat& gray, const cv::Mat& mask, std::vector<cv::KeyPoint>& keypoints,

@@ -120,6 +120,9 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   const bool masked_features_pending =
       std::count(frame.status.begin(), frame.status.end(), map::FeatureStatus::kPendingStage1) > 0;
   const bool use_prediction = !ok && had_motion && masked_features_pending;
+  // Lost beyond the prediction: the local map around the last tracked pose (frame.T_c_w below).
+  const bool search_last_pose = !ok && recovering && !had_motion && reference_keyframe_ != nullptr &&
+                                options_.tracking.search_last_pose_when_lost;
   if (!ok) {
     frame.clearMatches();
     frame.T_c_w = velocity_ ? motionOver(frame.timestamp - last_frame_.timestamp) * last_frame_.T_c_w : last_frame_.T_c_w;
@@ -129,7 +132,7 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   else if (stage1_enabled_)
     applyStage1(frame, outcome);
   int inliers = 0;
-  const bool attempted = ok || use_prediction;
+  const bool attempted = ok || use_prediction || search_last_pose;
   if (attempted) ok = trackLocalMap(frame, inliers);
   // People covering most of the view may leave fewer static inliers than the usual bar. Such a
   // pose is kept when it agrees with the motion prediction: losing the track would cost far more
@@ -196,7 +199,15 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   state_ = TrackingState::kOk;
   frame.has_pose = true;
   outcome.tracked = true;
-  if (recovering && !outcome.used_motion_model) {
+  // Back after a loss: the motion across the gap still estimates the velocity when the gap was
+  // short and the camera is back in the same map; otherwise the last tracked frame says nothing.
+  bool velocity_across_gap = false;
+  if (recovering && !outcome.used_motion_model && last_reference_ != nullptr &&
+      frame.timestamp - last_frame_.timestamp <= options_.tracking.predict_through_loss_s) {
+    std::shared_lock lock(map_.mutex());
+    velocity_across_gap = last_reference_->map_id == reference_keyframe_->map_id;
+  }
+  if (recovering && !outcome.used_motion_model && !velocity_across_gap) {
     velocity_.reset();  // the last tracked frame lies before the gap
   } else {
     velocity_ = frame.T_c_w * last_frame_.T_c_w.inverse();
