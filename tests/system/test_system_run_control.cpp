@@ -113,18 +113,18 @@ class RunControl : public ::testing::Test {
 // ---- signals -----------------------------------------------------------------------------------
 
 TEST_F(RunControl, SigtermMidRunKeepsEveryProcessedFrame) {
-  prepare(24);
-  const test::ChildProcess child = start("frame:9");
-  ASSERT_TRUE(child.waitForStderr("holding at frame:9")) << test::readText(child.err_file);
+  prepare(14);
+  const test::ChildProcess child = start("frame:5");
+  ASSERT_TRUE(child.waitForStderr("holding at frame:5")) << test::readText(child.err_file);
   child.signal(SIGTERM);
   const CommandResult r = child.wait();
   expectInterrupted(r, SIGTERM, "SIGTERM", "the frame loop");
-  expectTrajectoriesOfFirstFrames(10);
+  expectTrajectoriesOfFirstFrames(6);
   const nlohmann::json j = report();
-  EXPECT_EQ(j["interruption"]["next_frame_index"], 10);
-  EXPECT_EQ(j["interruption"]["frames_processed"], 10);
+  EXPECT_EQ(j["interruption"]["next_frame_index"], 6);
+  EXPECT_EQ(j["interruption"]["frames_processed"], 6);
   EXPECT_EQ(j["interruption"]["final_global_ba"], "skipped");
-  EXPECT_EQ(j["statistics"]["counts"]["frames"], 10);
+  EXPECT_EQ(j["statistics"]["counts"]["frames"], 6);
 }
 
 TEST_F(RunControl, SigintBeforeTheFinalBundleAdjustmentSkipsItAndFinishes) {
@@ -153,16 +153,16 @@ TEST_F(RunControl, SighupDuringExportStillExportsTheDenseMap) {
 }
 
 TEST_F(RunControl, SecondSignalSkipsTheDenseExportButWritesTrajectoriesAndReport) {
-  prepare(20);
-  const test::ChildProcess child = start("frame:7,export", {"--set", "dense.enabled=true"});
-  ASSERT_TRUE(child.waitForStderr("holding at frame:7")) << test::readText(child.err_file);
+  prepare(12);
+  const test::ChildProcess child = start("frame:4,export", {"--set", "dense.enabled=true"});
+  ASSERT_TRUE(child.waitForStderr("holding at frame:4")) << test::readText(child.err_file);
   child.signal(SIGINT);
   ASSERT_TRUE(child.waitForStderr("holding at export")) << test::readText(child.err_file);
   child.signal(SIGINT);
   const CommandResult r = child.wait();
   expectInterrupted(r, SIGINT, "SIGINT", "the frame loop");
   EXPECT_CONTAINS(r.err, "second signal");
-  expectTrajectoriesOfFirstFrames(8);
+  expectTrajectoriesOfFirstFrames(5);
   const nlohmann::json j = report();
   EXPECT_EQ(j["interruption"]["signals"], 2);
   EXPECT_EQ(j["interruption"]["optional_stages_skipped"], true);
@@ -190,8 +190,8 @@ TEST_F(RunControl, OutThatIsAFileIsRefusedBeforeTheFirstFrame) {
 // A write that fails half-way (a file-size limit: tests run as root, for whom permissions stop
 // nothing): the error names the file and the reason, the exit status is non-zero, no half file.
 TEST_F(RunControl, FailedWriteIsNamedAndLeavesNoHalfFile) {
-  prepare(30);  // CameraTrajectory.txt: ~3 kB, over the 2 kB limit; KeyFrameTrajectory.txt fits
-  const CommandResult r = run("", "ulimit -f 4; trap '' XFSZ; exec ");
+  prepare(16);  // CameraTrajectory.txt: ~1.6 kB, over the 1 kB limit; KeyFrameTrajectory.txt fits
+  const CommandResult r = run("", "ulimit -f 2; trap '' XFSZ; exec ");
   EXPECT_FALSE(r.signaled) << r.err;
   EXPECT_EQ(r.exit_code, exit_code::kOutputError) << r.err;
   EXPECT_CONTAINS(r.err, "CameraTrajectory.txt");
