@@ -1,18 +1,29 @@
 // `desslam run <sequence-dir> --config <yaml> --out <dir>`: runs the SLAM system over a TUM-layout
-// sequence and writes CameraTrajectory.txt, KeyFrameTrajectory.txt and report.json.
-// The trajectory is also saved every few hundred frames and on Ctrl-C, so a long run never loses
-// what it already computed.
+// sequence and writes CameraTrajectory.txt, CameraTrajectory_all.txt, KeyFrameTrajectory.txt,
+// report.json and the dense map. Every file is written atomically (core/atomic_file.hpp); the
+// trajectory is also saved every few hundred frames.
+//
+// SIGINT, SIGTERM and SIGHUP, from the start of the run to its last output: the first stops the
+// frame loop at the next frame and the run ends as a normal one does (mapping drains, the final
+// global BA is skipped, trajectories, dense map, report.json with "interrupted"), exit status
+// 128 + signal; a second one also aborts a running global BA and skips the dense-map export. The
+// handler only sets atomics; this thread looks at them between frames and stages.
+//
+// Any other failure during the run (bad frame, worker thread, unwritable output) also ends it with
+// the outputs computed so far and report.json naming the error, when they can still be written.
 #include <algorithm>
 #include <atomic>
 #include <cctype>
 #include <chrono>
 #include <csignal>
+#include <cstdlib>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -23,7 +34,9 @@
 #include <spdlog/spdlog.h>
 
 #include "commands.hpp"
+#include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "core/exit_codes.hpp"
 #include "eval/evaluation.hpp"
 #include "io/config.hpp"
 #include "io/trajectory_io.hpp"
@@ -48,6 +61,7 @@ struct RunArgs {
   std::string skip_frames;  // "FIRST-LAST" or empty
   int mask_latency = 0;     // --emulate-mask-latency
   int mask_period = 1;      // --emulate-mask-period
+  bool overwrite = false;   // --overwrite: replace an earlier run's outputs in --out
 };
 
 // Frames [first, last] (0-based indices into the paired frame list) withheld from the system.
@@ -79,20 +93,206 @@ std::optional<SkippedFrames> parseSkipFrames(const std::string& text) {
 
 constexpr size_t kCheckpointEvery = 200;  // frames between partial trajectory saves
 
-std::atomic<bool> g_interrupted{false};
-extern "C" void onInterrupt(int) { g_interrupted = true; }
+// ---- signals ----------------------------------------------------------------------------------
 
-void writeJson(const std::filesystem::path& path, const nlohmann::json& j) {
-  const std::filesystem::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp);
-    if (!out) throw InputError("cannot write " + path.string() + ": check that the --out folder is writable");
-    out << j.dump(2) << "\n";
-  }
-  std::filesystem::rename(tmp, path);
+constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP};
+
+// Written by the handler (any thread), read by the run's thread. Lock-free atomics are
+// async-signal-safe; the handler does nothing else.
+std::atomic<int> g_first_signal{0};   // the first stop signal's number (0: none yet)
+std::atomic<int> g_signal_count{0};   // stop signals received
+std::atomic<bool> g_skip_optional{false};  // a second signal: skip global BA and dense export
+static_assert(std::atomic<int>::is_always_lock_free && std::atomic<bool>::is_always_lock_free,
+              "the signal handler needs lock-free atomics");
+
+extern "C" void onStopSignal(int signal_number) {
+  int none = 0;
+  g_first_signal.compare_exchange_strong(none, signal_number);  // set before the count is seen
+  if (g_signal_count.fetch_add(1) >= 1) g_skip_optional.store(true);
 }
 
-void runSequence(const RunArgs& args) {
+const char* signalName(int signal_number) {
+  switch (signal_number) {
+    case SIGINT: return "SIGINT";
+    case SIGTERM: return "SIGTERM";
+    case SIGHUP: return "SIGHUP";
+    default: return "signal";
+  }
+}
+
+// Installs the stop handler for its lifetime (the whole run) and restores the previous ones.
+class StopSignals {
+ public:
+  StopSignals() {
+    g_first_signal = 0;
+    g_signal_count = 0;
+    g_skip_optional = false;
+    struct sigaction action {};
+    action.sa_handler = onStopSignal;
+    sigemptyset(&action.sa_mask);
+    action.sa_flags = SA_RESTART;  // writes and waits resume after the handler
+    for (size_t k = 0; k < std::size(kStopSignals); ++k) sigaction(kStopSignals[k], &action, &previous_[k]);
+  }
+  ~StopSignals() {
+    for (size_t k = 0; k < std::size(kStopSignals); ++k) sigaction(kStopSignals[k], &previous_[k], nullptr);
+  }
+  StopSignals(const StopSignals&) = delete;
+  StopSignals& operator=(const StopSignals&) = delete;
+
+ private:
+  struct sigaction previous_[std::size(kStopSignals)] {};
+};
+
+// What the run's thread has seen of the signals, told on stderr once each.
+struct Interruption {
+  int signal = 0;    // first signal (0: not interrupted)
+  int count = 0;     // signals seen so far
+  std::string stage;        // what the run was doing when the first one was seen
+  size_t next_frame = 0;    // index (in the sequence) of the first frame not read
+  size_t frames_processed = 0;
+
+  bool interrupted() const { return signal != 0; }
+  // Looks at the handler's atomics; prints what changes. `stage`: what the run does now.
+  void notice(const std::string& now_stage, size_t next_frame_index, size_t processed, size_t frame_count) {
+    const int seen = g_signal_count.load();
+    if (seen == count) return;
+    if (count == 0) {
+      signal = g_first_signal.load();
+      stage = now_stage;
+      next_frame = next_frame_index;
+      frames_processed = processed;
+      std::fprintf(stderr,
+                   "\ninterrupted by %s (%d) during %s after %zu of %zu frames: finishing the run without the "
+                   "final bundle adjustment (mapping drains, then trajectories, dense map, report.json); send "
+                   "the signal again to skip the dense map too\n",
+                   signalName(signal), signal, stage.c_str(), processed, frame_count);
+    }
+    if (seen >= 2 && count < 2)
+      std::fprintf(stderr, "\nsecond signal during %s: skipping the remaining optional stages (global bundle "
+                           "adjustment, dense-map export); writing trajectories and report.json\n",
+                   now_stage.c_str());
+    std::fflush(stderr);
+    count = seen;
+  }
+};
+
+// DESSLAM_HOLD_AT=stage[,stage...] (tests): at each named stage ("frame:N" after frame N, "mapping",
+// "final_ba", "dense", "export", "report") the run says so on stderr and waits for a signal (at
+// most 60 s), so a test can signal it exactly there.
+void holdIfAsked(const std::string& stage) {
+  static const std::vector<std::string> stages = [] {
+    std::vector<std::string> list;
+    const char* env = std::getenv("DESSLAM_HOLD_AT");
+    std::string text = env != nullptr ? env : "";
+    for (size_t begin = 0; begin <= text.size();) {
+      const size_t end = std::min(text.find(',', begin), text.size());
+      if (end > begin) list.push_back(text.substr(begin, end - begin));
+      begin = end + 1;
+    }
+    return list;
+  }();
+  if (std::find(stages.begin(), stages.end(), stage) == stages.end()) return;
+  const int seen = g_signal_count.load();
+  std::fprintf(stderr, "\nholding at %s until a signal (DESSLAM_HOLD_AT)\n", stage.c_str());
+  std::fflush(stderr);
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (g_signal_count.load() == seen && std::chrono::steady_clock::now() < until)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+}
+
+// ---- the output folder ------------------------------------------------------------------------
+
+// Every file `run` writes into --out (only these are ever removed by --overwrite).
+constexpr const char* kRunOutputs[] = {"CameraTrajectory.txt", "CameraTrajectory_all.txt", "KeyFrameTrajectory.txt",
+                                       "report.json",          "dense_map.ply",            "dense_map.pcd",
+                                       "dense_map_sources.bin", "octomap.bt",              "dense_map.png"};
+// Those that show an earlier run used the folder.
+constexpr const char* kRunMarkers[] = {"report.json", "CameraTrajectory.txt", "CameraTrajectory_all.txt",
+                                       "KeyFrameTrajectory.txt"};
+
+// Refuses a folder holding an earlier run's outputs unless --overwrite (then removes exactly the
+// files a run writes, and temporary files a killed run left), then checks it can be written.
+void prepareOutputFolder(const std::filesystem::path& out_dir, bool overwrite) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::is_directory(out_dir, ec)) {
+    std::vector<std::string> earlier;
+    for (const char* name : kRunMarkers)
+      if (fs::exists(out_dir / name, ec)) earlier.push_back(name);
+    if (!earlier.empty() && !overwrite)
+      throw InputError("--out " + out_dir.string() + " holds the outputs of an earlier run (" + earlier.front() +
+                       "): pass --overwrite to replace them, or choose another --out folder");
+    if (overwrite) {
+      std::vector<fs::path> remove;
+      for (const char* name : kRunOutputs)
+        if (fs::is_regular_file(fs::symlink_status(out_dir / name, ec)) || fs::is_symlink(out_dir / name, ec))
+          remove.push_back(out_dir / name);
+      for (const fs::directory_entry& entry : fs::directory_iterator(out_dir, ec))
+        if (isAtomicTempName(entry.path().filename().string()) && entry.is_regular_file(ec)) remove.push_back(entry.path());
+      for (const fs::path& file : remove) {
+        fs::remove(file, ec);
+        if (ec) throw OutputError("--overwrite: cannot remove " + file.string() + ": " + ec.message());
+      }
+    }
+  }
+  requireWritableFolder(out_dir, "--out folder");
+}
+
+// ---- errors during the run ---------------------------------------------------------------------
+
+// The first error of the run (later ones are consequences) and its exit status.
+struct RunError {
+  std::string message;
+  int code = exit_code::kOk;
+  explicit operator bool() const { return code != exit_code::kOk; }
+  void record(const std::exception& e) {
+    if (*this) return;
+    message = e.what();
+    code = exitCodeFor(e);
+  }
+};
+
+// Runs `step`; an exception becomes the run's error instead of ending it.
+template <class Step>
+void attempt(RunError& error, Step&& step) {
+  try {
+    step();
+  } catch (const std::exception& e) {
+    error.record(e);
+  }
+}
+
+void writeJson(const std::filesystem::path& path, const nlohmann::json& j) {
+  writeFileAtomically(path, j.dump(2) + "\n", "report");
+}
+
+// Why a run tracked no frame, from the per-frame keypoint counts.
+std::string nothingTrackedMessage(const system::SlamSystem& slam, const SystemOptions& options, size_t frame_count) {
+  const std::vector<system::FrameStats>& frames = slam.frameStats();
+  if (frames.empty()) return "nothing was tracked: no frame was processed (of " + std::to_string(frame_count) + ")";
+  const int needed = options.atlas.min_initial_features;
+  size_t enough = 0;
+  int best = 0;
+  for (const system::FrameStats& f : frames) {
+    enough += f.features_with_depth >= needed ? 1 : 0;
+    best = std::max(best, f.features_with_depth);
+  }
+  std::ostringstream msg;
+  msg << "nothing was tracked: " << enough << " of " << frames.size() << " frames had " << needed
+      << " or more keypoints with valid depth (atlas.min_initial_features, needed to start a map; the best frame had "
+      << best << ")";
+  if (enough == 0)
+    msg << ": is the camera covered, is camera.depth_factor right (" << options.camera.depth_factor
+        << " depth-image units per metre), does tracking.min_depth/max_depth (" << options.tracking.min_depth << "-"
+        << options.tracking.max_depth << " m) cover the scene?";
+  else
+    msg << ", but none started a map: are the keypoints spread over at least atlas.min_initial_cells ("
+        << options.atlas.min_initial_cells << ") cells of a 4 x 4 grid?";
+  return msg.str();
+}
+
+int runSequence(const RunArgs& args) {
+  const StopSignals stop_signals;  // from here to the last output
   const std::optional<SkippedFrames> skipped = parseSkipFrames(args.skip_frames);
   SystemOptions options = io::loadConfig(args.config);
   for (const std::string& assignment : args.overrides) io::applyOverride(options, assignment);
@@ -103,11 +303,13 @@ void runSequence(const RunArgs& args) {
 
   const io::TumSequence sequence = io::TumSequence::open(args.sequence);
   const std::filesystem::path out_dir(args.out);
-  std::filesystem::create_directories(out_dir);
   const size_t frame_count = args.max_frames > 0 ? std::min(args.max_frames, sequence.size()) : sequence.size();
   if (skipped && skipped->first >= frame_count)
     throw InputError("--skip-frames " + args.skip_frames + ": the run has only " + std::to_string(frame_count) +
                      " frames (indices 0-" + std::to_string(frame_count - 1) + "); choose a range inside it");
+  if (args.deterministic && args.realtime)
+    throw ConfigError("--deterministic and --realtime exclude each other: real-time mode never waits for a stage");
+  prepareOutputFolder(out_dir, args.overwrite);
   std::vector<size_t> input_index;  // per frame given to the system: its index in the sequence
 
   system::RunSettings settings;
@@ -116,64 +318,73 @@ void runSequence(const RunArgs& args) {
   settings.debug_images_dir = args.debug_images;
   settings.mask_latency_frames = args.mask_latency;
   settings.mask_period_frames = args.mask_period;
-  if (args.deterministic && args.realtime)
-    throw ConfigError("--deterministic and --realtime exclude each other: real-time mode never waits for a stage");
   system::SlamSystem slam(options, settings);
   std::vector<double> lag_ms;  // real-time: how late each frame started relative to its sensor time
 
-  g_interrupted = false;
-  auto previous_handler = std::signal(SIGINT, onInterrupt);
+  Interruption interruption;
+  RunError error;
+  const auto notice = [&](const std::string& stage, size_t next_frame) {
+    interruption.notice(stage, next_frame, slam.framesProcessed(), frame_count);
+  };
   const auto start = std::chrono::steady_clock::now();
   auto last_progress = start;
-  std::string stop_reason;
-  for (size_t i = 0; i < frame_count; ++i) {
-    if (g_interrupted) {
-      stop_reason = "interrupted after " + std::to_string(i) + " frames";
-      break;
-    }
-    if (skipped && skipped->contains(i)) continue;
-    io::RgbdImage image;
-    try {
-      image = sequence.load(i, options.camera);
+  size_t next_frame = 0;  // index of the first frame not read
+  attempt(error, [&] {
+    for (size_t i = 0; i < frame_count; ++i) {
+      next_frame = i;
+      notice("the frame loop", i);
+      if (interruption.interrupted()) return;
+      if (skipped && skipped->contains(i)) continue;
+      io::RgbdImage image = sequence.load(i, options.camera);
       if (input_index.empty()) io::checkDepthScale(image.depth, sequence.record(i).depth_path, options.camera.depth_factor);
-    } catch (const InputError&) {
-      // Keep what was computed, then report the bad input.
-      slam.finish();
-      io::writeTumTrajectory(out_dir / "CameraTrajectory.txt", slam.cameraTrajectory());
-      throw;
-    }
-    if (args.realtime) {
-      // Frames arrive at the sensor's rate: wait for this frame's time, never skip one.
-      const double due_s = sequence.record(i).rgb_timestamp - sequence.record(0).rgb_timestamp;
-      const double now_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      if (due_s > now_s) std::this_thread::sleep_for(std::chrono::duration<double>(due_s - now_s));
-      lag_ms.push_back(std::max(0.0, now_s - due_s) * 1000.0);
-    }
-    const io::RgbdFrameRecord& record = sequence.record(i);
-    input_index.push_back(i);
-    slam.processFrame(image.timestamp, image.bgr, image.depth, record.rgb_path.filename().string(),
-                      record.depth_timestamp - record.rgb_timestamp);
+      if (args.realtime) {
+        // Frames arrive at the sensor's rate: wait for this frame's time, never skip one.
+        const double due_s = sequence.record(i).rgb_timestamp - sequence.record(0).rgb_timestamp;
+        const double now_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        if (due_s > now_s) std::this_thread::sleep_for(std::chrono::duration<double>(due_s - now_s));
+        lag_ms.push_back(std::max(0.0, now_s - due_s) * 1000.0);
+      }
+      const io::RgbdFrameRecord& record = sequence.record(i);
+      input_index.push_back(i);
+      slam.processFrame(image.timestamp, image.bgr, image.depth, record.rgb_path.filename().string(),
+                        record.depth_timestamp - record.rgb_timestamp);
+      next_frame = i + 1;
 
-    if ((i + 1) % kCheckpointEvery == 0) io::writeTumTrajectory(out_dir / "CameraTrajectory.txt", slam.cameraTrajectory());
-    const auto now = std::chrono::steady_clock::now();
-    if (!args.quiet && (now - last_progress > std::chrono::milliseconds(500) || i + 1 == frame_count)) {
-      last_progress = now;
-      const double seconds = std::chrono::duration<double>(now - start).count();
-      std::fprintf(stderr, "\r[%zu/%zu] %.1f frames/s  %s   ", i + 1, frame_count, (i + 1) / seconds,
-                   slam.lastFrameTracked() ? "tracking" : "LOST    ");
-      std::fflush(stderr);
+      if ((i + 1) % kCheckpointEvery == 0)
+        io::writeTumTrajectory(out_dir / "CameraTrajectory.txt", slam.cameraTrajectory());
+      const auto now = std::chrono::steady_clock::now();
+      if (!args.quiet && (now - last_progress > std::chrono::milliseconds(500) || i + 1 == frame_count)) {
+        last_progress = now;
+        const double seconds = std::chrono::duration<double>(now - start).count();
+        std::fprintf(stderr, "\r[%zu/%zu] %.1f frames/s  %s   ", i + 1, frame_count, (i + 1) / seconds,
+                     slam.lastFrameTracked() ? "tracking" : "LOST    ");
+        std::fflush(stderr);
+      }
+      holdIfAsked("frame:" + std::to_string(i));
     }
-  }
-  std::signal(SIGINT, previous_handler);
+    next_frame = frame_count;
+  });
   if (!args.quiet) std::fprintf(stderr, "\n");
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
-  slam.finish();
+  // Finish: mapping drains; the final BA only when not interrupted; a second signal aborts a
+  // running global BA.
+  system::FinishControl control;
+  control.abort = &g_skip_optional;
+  control.on_stage = [&](const std::string& stage) {
+    notice(stage, next_frame);
+    holdIfAsked(stage);
+    notice(stage, next_frame);
+    return !(stage == "final_ba" && interruption.interrupted());
+  };
+  attempt(error, [&] { slam.finish(control); });
+
+  // Outputs: each attempted even when an earlier one failed (a trajectory may still fit).
   const Trajectory trajectory = slam.cameraTrajectory();
-  io::writeTumTrajectory(out_dir / "CameraTrajectory.txt", trajectory);
   const AtlasTrajectory all_maps = slam.cameraTrajectoryAll();
-  io::writeAtlasTrajectory(out_dir / "CameraTrajectory_all.txt", all_maps);
-  io::writeTumTrajectory(out_dir / "KeyFrameTrajectory.txt", slam.keyframeTrajectory());
+  attempt(error, [&] { io::writeTumTrajectory(out_dir / "CameraTrajectory.txt", trajectory); });
+  attempt(error, [&] { io::writeAtlasTrajectory(out_dir / "CameraTrajectory_all.txt", all_maps); });
+  attempt(error, [&] { io::writeTumTrajectory(out_dir / "KeyFrameTrajectory.txt", slam.keyframeTrajectory()); });
 
   nlohmann::json report;
   report["sequence"] = std::filesystem::absolute(args.sequence).string();
@@ -193,8 +404,15 @@ void runSequence(const RunArgs& args) {
   report["frames_per_second"] = slam.framesProcessed() / std::max(wall_s, 1e-9);
   report["input_warnings"] = sequence.warnings();
   if (args.realtime) report["realtime_lag_ms"] = system::summarizeMilliseconds(lag_ms);
-  report["dense"] = slam.exportDenseMap(out_dir, args.map_color == "semantic");
-  if (!stop_reason.empty()) report["stopped"] = stop_reason;
+  notice("export", next_frame);
+  holdIfAsked("export");
+  notice("export", next_frame);
+  if (error.code == exit_code::kOutputError) {
+    report["dense"] = {{"exported", false}, {"note", "skipped: an earlier output could not be written"}};
+  } else {
+    attempt(error, [&] { report["dense"] = slam.exportDenseMap(out_dir, args.map_color == "semantic", &g_skip_optional); });
+  }
+  if (report["dense"].contains("note")) std::fprintf(stderr, "note: dense map: %s\n", report["dense"]["note"].get<std::string>().c_str());
   if (sequence.groundTruth() && trajectory.size() >= 3) {
     try {
       const eval::AteResult ate = eval::computeAte(*sequence.groundTruth(), trajectory);
@@ -218,8 +436,33 @@ void runSequence(const RunArgs& args) {
       report["evaluation_error"] = e.what();
     }
   }
-  writeJson(out_dir / "report.json", report);
-  if (!args.quiet) {
+  notice("report", next_frame);
+  holdIfAsked("report");
+  notice("report", next_frame);
+  const nlohmann::json& counts = report["statistics"]["counts"];
+  // (An error or an interruption says itself why little was tracked.)
+  const bool nothing_tracked = !error && !interruption.interrupted() && counts["frames_with_pose"].get<size_t>() == 0;
+  report["interrupted"] = interruption.interrupted();
+  if (interruption.interrupted())
+    report["interruption"] = {{"signal", signalName(interruption.signal)},
+                              {"signal_number", interruption.signal},
+                              {"signals", interruption.count},
+                              {"stage", interruption.stage},
+                              {"next_frame_index", interruption.next_frame},
+                              {"frames_processed", interruption.frames_processed},
+                              {"frames_in_run", frame_count},
+                              {"final_global_ba", slam.finalBundleAdjustmentDone() ? "done" : "skipped"},
+                              {"optional_stages_skipped", g_skip_optional.load()}};
+  if (error) report["error"] = error.message;
+  if (nothing_tracked) report["nothing_tracked"] = nothingTrackedMessage(slam, options, frame_count);
+  const int code = error                          ? error.code
+                   : interruption.interrupted()   ? exit_code::interrupted(interruption.signal)
+                   : nothing_tracked              ? exit_code::kNothingTracked
+                                                  : exit_code::kOk;
+  report["exit_code"] = code;
+  RunError report_error;
+  attempt(report_error, [&] { writeJson(out_dir / "report.json", report); });
+  if (!args.quiet && !error && !report_error) {
     const auto& stats = report["statistics"];
     std::cout << "frames " << stats["counts"]["frames"] << ", tracked " << stats["counts"]["frames_tracked"]
               << ", with a pose " << stats["counts"]["frames_with_pose"] << " (" << stats["counts"]["predicted_poses"]
@@ -230,6 +473,14 @@ void runSequence(const RunArgs& args) {
               << "; tracking median " << stats["timings_ms"]["tracking"]["median"] << " ms/frame\n"
               << "wrote " << (out_dir / "CameraTrajectory.txt").string() << ", KeyFrameTrajectory.txt, report.json\n";
   }
+  if (error) std::fprintf(stderr, "error: %s\n", error.message.c_str());
+  if (report_error) std::fprintf(stderr, "error: %s\n", report_error.message.c_str());
+  if (nothing_tracked) std::fprintf(stderr, "%s\n", report["nothing_tracked"].get<std::string>().c_str());
+  if (interruption.interrupted())
+    std::fprintf(stderr, "interrupted by %s after %zu of %zu frames: outputs written to %s (exit status %d)\n",
+                 signalName(interruption.signal), interruption.frames_processed, frame_count, out_dir.string().c_str(),
+                 code);
+  return report_error && !error ? report_error.code : code;
 }
 
 }  // namespace
@@ -269,7 +520,13 @@ void registerRunCommand(CLI::App& app) {
   cmd->add_option("--map-color", args->map_color, "Dense map colours: rgb | semantic")
       ->check(CLI::IsMember({"rgb", "semantic"}))
       ->capture_default_str();
-  cmd->callback([args] { runSequence(*args); });
+  cmd->add_flag("--overwrite", args->overwrite,
+                "Reuse an --out folder that holds an earlier run's outputs: removes the files a run writes "
+                "(trajectories, report.json, dense map) first, never other files");
+  cmd->callback([args] {
+    const int code = runSequence(*args);
+    if (code != exit_code::kOk) throw ExitStatus{code};
+  });
 }
 
 }  // namespace desslam::app

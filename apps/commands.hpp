@@ -2,15 +2,36 @@
 // to the CLI11 app; main.cpp lists them explicitly.
 #pragma once
 
+#include <exception>
+#include <filesystem>
+
 #include <CLI/CLI.hpp>
+
+#include "core/error.hpp"
+#include "core/exit_codes.hpp"
 
 namespace desslam::app {
 
 // Each returns nothing; the command's callback runs when CLI11 selects it and throws on error
-// (main prints the message and exits with status 1).
+// (main prints the message and exits with exitCodeFor(error)).
 void registerRunCommand(CLI::App& app);   // cmd_run.cpp
 void registerEvalCommand(CLI::App& app);  // cmd_eval.cpp
 void registerVocabCommand(CLI::App& app);  // cmd_vocab.cpp
 void registerMapCheckCommand(CLI::App& app);  // cmd_mapcheck.cpp
+
+// Thrown by a command that has done its work and said what happened (stderr) to end the program
+// with a status other than 0 (core/exit_codes.hpp), e.g. `run` after an interruption.
+struct ExitStatus {
+  int code = exit_code::kOk;
+};
+
+// The exit status of an error (the same in every sub-command).
+inline int exitCodeFor(const std::exception& e) {
+  if (dynamic_cast<const InputError*>(&e) != nullptr || dynamic_cast<const ConfigError*>(&e) != nullptr)
+    return exit_code::kBadInput;
+  if (dynamic_cast<const OutputError*>(&e) != nullptr || dynamic_cast<const std::filesystem::filesystem_error*>(&e) != nullptr)
+    return exit_code::kOutputError;
+  return exit_code::kInternalError;
+}
 
 }  // namespace desslam::app

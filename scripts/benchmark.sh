@@ -26,7 +26,7 @@ for spec in "$@"; do
   seq=${spec%%:*}; cfg=${spec#*:}
   name=$(basename "$seq")
   for i in $(seq 1 "$runs"); do
-    build/desslam run "$seq" --config "$cfg" --out "$out/$name/run$i" -q "${extra[@]}" 2>/dev/null
+    build/desslam run "$seq" --config "$cfg" --out "$out/$name/run$i" --overwrite -q "${extra[@]}" 2>/dev/null
   done
   python3 - "$out/$name" "$runs" "$name" <<'PY'
 import json, statistics, sys

@@ -239,7 +239,7 @@ for spec in "${specs[@]}"; do
       dir=$out/$name/$c/run$i
       mkdir -p "$dir"
       rm -f "$dir/report.json" "$dir/CameraTrajectory_all.txt" "$dir/stderr.log"
-      "$desslam" run "$seq" --config "$cfg" --out "$dir" -q "${skip[@]+"${skip[@]}"}" \
+      "$desslam" run "$seq" --config "$cfg" --out "$dir" --overwrite -q "${skip[@]+"${skip[@]}"}" \
         "${extra[@]+"${extra[@]}"}" >"$dir/desslam.log" 2>&1
       rc=$?
       [ "$rc" = 0 ] || echo "warning: $name $c run$i: desslam exited $rc; see $dir/desslam.log" >&2

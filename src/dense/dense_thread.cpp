@@ -27,7 +27,7 @@ DenseMappingThread::DenseMappingThread(const DenseOptions& options, const Pinhol
 DenseMappingThread::~DenseMappingThread() { stop(); }
 
 bool DenseMappingThread::push(std::shared_ptr<const DenseKeyframe> keyframe) {
-  if (stopped_) return false;
+  if (stopped_ || failed_) return false;
   ++pushed_;  // counted first so waitUntilIdle() never misses a keyframe in flight
   if (queue_.push(std::move(keyframe))) return true;
   std::lock_guard lock(map_mutex_);
@@ -41,22 +41,19 @@ void DenseMappingThread::run() {
   if (full_policy_ == QueueFullPolicy::kDropOldest) lowerCurrentThreadPriority(10);
   size_t seen_dropped = 0;
   while (auto message = queue_.pop()) {
-    const DenseKeyframe& keyframe = **message;
-    // Back-projection outside the lock: the BackProjector is immutable and shared.
-    const auto start = std::chrono::steady_clock::now();
-    const double cpu_start = threadCpuMilliseconds();
-    const KeyframeCloud cloud = map_.backProjector()(keyframe);
-    const double project_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     const size_t dropped = queue_.dropped();
+    if (!failed_) {
+      try {
+        integrate(**message);
+      } catch (...) {
+        // Kept for the pipeline to rethrow (failure()); later keyframes are taken off the queue
+        // unmapped, so producers and waitUntilIdle() are never left waiting.
+        std::lock_guard lock(map_mutex_);
+        failure_ = std::current_exception();
+        failed_ = true;
+      }
+    }
     std::lock_guard lock(map_mutex_);
-    const auto merge_start = std::chrono::steady_clock::now();
-    applyPendingPoses();
-    const auto it = pose_overrides_.find(keyframe.keyframe_id);
-    map_.integrate(cloud, it != pose_overrides_.end() ? it->second : keyframe.T_w_c, keyframe.depth);
-    if (culled_ids_.erase(keyframe.keyframe_id) != 0) map_.removeKeyframe(keyframe.keyframe_id);
-    keyframe_ms_.push_back(project_ms +
-                           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - merge_start).count());
-    keyframe_cpu_ms_.push_back(threadCpuMilliseconds() - cpu_start);
     processed_ += 1 + (dropped - seen_dropped);  // dropped keyframes will never arrive
     seen_dropped = dropped;
     idle_.notify_all();
@@ -64,6 +61,28 @@ void DenseMappingThread::run() {
   std::lock_guard lock(map_mutex_);
   processed_ += queue_.dropped() - seen_dropped;
   idle_.notify_all();
+}
+
+void DenseMappingThread::integrate(const DenseKeyframe& keyframe) {
+  // Back-projection outside the lock: the BackProjector is immutable and shared.
+  const auto start = std::chrono::steady_clock::now();
+  const double cpu_start = threadCpuMilliseconds();
+  const KeyframeCloud cloud = map_.backProjector()(keyframe);
+  const double project_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  std::lock_guard lock(map_mutex_);
+  const auto merge_start = std::chrono::steady_clock::now();
+  applyPendingPoses();
+  const auto it = pose_overrides_.find(keyframe.keyframe_id);
+  map_.integrate(cloud, it != pose_overrides_.end() ? it->second : keyframe.T_w_c, keyframe.depth);
+  if (culled_ids_.erase(keyframe.keyframe_id) != 0) map_.removeKeyframe(keyframe.keyframe_id);
+  keyframe_ms_.push_back(project_ms +
+                         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - merge_start).count());
+  keyframe_cpu_ms_.push_back(threadCpuMilliseconds() - cpu_start);
+}
+
+std::exception_ptr DenseMappingThread::failure() const {
+  std::lock_guard lock(map_mutex_);
+  return failure_;
 }
 
 void DenseMappingThread::updatePoses(const PoseMap& T_w_c_by_id) {

@@ -4,7 +4,7 @@
 // Lock discipline:
 //  - the queue's own mutex (BoundedQueue) guards only the queue;
 //  - map_mutex_ guards map_, pose_overrides_, pending_poses_, culled_ids_, the timings and
-//    processed_. The worker back-projects BEFORE taking it and holds it while applying pending
+//    processed_ and failure_. The worker back-projects BEFORE taking it and holds it while applying pending
 //    poses (a re-key is linear in the moved voxels) and merging the keyframe into the voxel map
 //    (with free-space carving: up to a few hundred ms); exportCloud() holds it while extracting
 //    the voxels and runs the outlier filter after releasing it;
@@ -20,6 +20,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <exception>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -41,7 +42,7 @@ class DenseMappingThread {
   DenseMappingThread(const DenseMappingThread&) = delete;
   DenseMappingThread& operator=(const DenseMappingThread&) = delete;
 
-  // Any thread. Returns false after stop() (the keyframe is not mapped).
+  // Any thread. Returns false after stop() or a failure (the keyframe is not mapped).
   bool push(std::shared_ptr<const DenseKeyframe> keyframe);
 
   // Any thread. New poses for keyframes (after local BA / loop closure). Also remembered for
@@ -78,9 +79,13 @@ class DenseMappingThread {
   size_t keyframeCount() const;   // keyframes mapped (culled included)
   size_t processedCount() const;  // keyframes taken from the queue (mapped or dropped)
   size_t droppedCount() const { return queue_.dropped(); }
+  // The exception mapping a keyframe threw (null while none did). The worker maps nothing after
+  // it (queued keyframes are taken off unmapped); the pipeline rethrows it to its caller.
+  std::exception_ptr failure() const;
 
  private:
   void run();
+  void integrate(const DenseKeyframe& keyframe);  // back-projection and merge (may throw)
 
   const QueueFullPolicy full_policy_;  // kDropOldest = real time: the worker runs at lower priority
   BoundedQueue<std::shared_ptr<const DenseKeyframe>> queue_;
@@ -99,6 +104,8 @@ class DenseMappingThread {
   std::atomic<size_t> pushed_{0};
   size_t processed_ = 0;         // guarded by map_mutex_
   std::atomic<bool> stopped_{false};
+  std::atomic<bool> failed_{false};
+  std::exception_ptr failure_;   // guarded by map_mutex_
   std::mutex stop_mutex_;        // serialises stop() callers only
   std::thread worker_;
 };

@@ -9,6 +9,7 @@
 #include <open3d/io/PointCloudIO.h>
 #include <opencv2/imgcodecs.hpp>
 
+#include "core/atomic_file.hpp"
 #include "core/error.hpp"
 
 namespace desslam::dense {
@@ -16,28 +17,19 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Open3D and OctoMap report failures on stderr only; naming the folder up front gives the
-// user the fix.
-void requireWritableTarget(const fs::path& path, const char* what) {
-  const fs::path parent = path.has_parent_path() ? path.parent_path() : fs::path(".");
-  if (!fs::is_directory(parent))
-    throw InputError(std::string("cannot write ") + what + " " + path.string() + ": folder " + parent.string() +
-                     " does not exist (create it or choose another --out)");
-}
-
+// Open3D, OctoMap and OpenCV write by path: each writes a temporary file beside the target,
+// which is fsynced and renamed onto it (core/atomic_file.hpp), so a failed export never leaves
+// half a map. Failures throw OutputError naming the file and the reason.
 void writeCloud(const fs::path& path, const open3d::geometry::PointCloud& cloud, const char* what) {
-  requireWritableTarget(path, what);
   const open3d::io::WritePointCloudOption binary(open3d::io::WritePointCloudOption::IsAscii::Binary,
                                                  open3d::io::WritePointCloudOption::Compressed::Uncompressed);
-  if (!open3d::io::WritePointCloud(path.string(), cloud, binary))
-    throw InputError(std::string("cannot write ") + what + " " + path.string() +
-                     ": write failed (check permissions and free disk space)");
+  writeFileAtomicallyVia(path, what, [&](const fs::path& tmp) {
+    return open3d::io::WritePointCloud(tmp.string(), cloud, binary);
+  });
 }
 
 void writeTree(const fs::path& path, octomap::OcTree& tree) {
-  requireWritableTarget(path, "OctoMap");
-  if (!tree.writeBinary(path.string()))
-    throw InputError("cannot write OctoMap " + path.string() + ": write failed (check permissions and disk space)");
+  writeFileAtomicallyVia(path, "OctoMap", [&](const fs::path& tmp) { return tree.writeBinary(tmp.string()); });
 }
 
 }  // namespace
@@ -61,16 +53,17 @@ static_assert(std::endian::native == std::endian::little, "map sidecar I/O assum
 }  // namespace
 
 void writeMapSources(const fs::path& path, const std::vector<Timestamp>& first_seen) {
-  requireWritableTarget(path, "map sidecar");
-  std::ofstream out(path, std::ios::binary);
   const uint32_t version = kSourcesVersion, reserved = 0;
   const uint64_t count = first_seen.size();
-  out.write(kSourcesMagic, sizeof(kSourcesMagic));
-  out.write(reinterpret_cast<const char*>(&version), sizeof(version));
-  out.write(reinterpret_cast<const char*>(&reserved), sizeof(reserved));
-  out.write(reinterpret_cast<const char*>(&count), sizeof(count));
-  out.write(reinterpret_cast<const char*>(first_seen.data()), static_cast<std::streamsize>(count * sizeof(double)));
-  if (!out) throw InputError("cannot write map sidecar " + path.string() + ": write failed (check disk space)");
+  std::string bytes;
+  bytes.reserve(sizeof(kSourcesMagic) + 16 + count * sizeof(double));
+  const auto put = [&bytes](const void* data, size_t n) { bytes.append(static_cast<const char*>(data), n); };
+  put(kSourcesMagic, sizeof(kSourcesMagic));
+  put(&version, sizeof(version));
+  put(&reserved, sizeof(reserved));
+  put(&count, sizeof(count));
+  put(first_seen.data(), count * sizeof(double));
+  writeFileAtomically(path, bytes, "map sidecar");
 }
 
 std::vector<Timestamp> readMapSources(const fs::path& path, std::optional<size_t> expected_count) {
@@ -146,10 +139,8 @@ OctomapSummary readOctomap(const fs::path& path) {
 
 void renderPng(const fs::path& path, const open3d::geometry::PointCloud& cloud, const std::vector<SE3>& camera_path,
                const RenderSettings& settings) {
-  requireWritableTarget(path, "PNG");
   const cv::Mat image = renderMap(cloud, camera_path, settings);
-  if (!cv::imwrite(path.string(), image))
-    throw InputError("cannot write PNG " + path.string() + ": write failed (check the .png extension and permissions)");
+  writeFileAtomicallyVia(path, "PNG", [&](const fs::path& tmp) { return cv::imwrite(tmp.string(), image); });
 }
 
 }  // namespace desslam::dense

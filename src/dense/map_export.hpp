@@ -1,5 +1,6 @@
 // Writing the dense map in the formats the field reads, and reading it back (tests, tools).
-// Every writer throws InputError naming the file when it cannot be written.
+// Every writer writes atomically (core/atomic_file.hpp) and throws OutputError naming the file and
+// the reason when it cannot be written.
 #pragma once
 
 #include <filesystem>

@@ -1,11 +1,14 @@
 #include "io/trajectory_io.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <system_error>
 
+#include "core/atomic_file.hpp"
 #include "core/error.hpp"
 
 namespace desslam::io {
@@ -38,48 +41,51 @@ Trajectory readTumTrajectory(const std::filesystem::path& path) {
 }
 
 namespace {
-// Writes a temporary file then renames it, so an interrupted run never leaves half a file.
-// write_rows(f) prints the header and rows.
-template <class WriteRows>
-void writeTrajectoryFile(const std::filesystem::path& path, WriteRows write_rows) {
-  if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
-  const std::filesystem::path tmp = path.string() + ".tmp";
-  {
-    std::FILE* f = std::fopen(tmp.c_str(), "w");
-    if (f == nullptr) throw InputError("cannot write trajectory file " + path.string() + ": check permissions");
-    write_rows(f);
-    if (std::fclose(f) != 0) throw InputError("failed writing trajectory file " + tmp.string());
-  }
-  std::filesystem::rename(tmp, path);
+// The trajectory writers create the folder (the dense-map writers do not).
+void createFolderOf(const std::filesystem::path& path) {
+  if (!path.has_parent_path()) return;
+  std::error_code ec;
+  std::filesystem::create_directories(path.parent_path(), ec);
+  if (ec)
+    throw OutputError("cannot write trajectory file " + path.string() + ": cannot create folder " +
+                      path.parent_path().string() + ": " + ec.message());
 }
 
 // TUM's eight columns (no line end).
-void printPose(std::FILE* f, Timestamp timestamp, const SE3& T_w_c) {
+void appendPose(std::string& out, Timestamp timestamp, const SE3& T_w_c) {
   const Quat& q = T_w_c.quaternion();
   const Vec3& t = T_w_c.translation();
-  std::fprintf(f, "%.6f %.9f %.9f %.9f %.9f %.9f %.9f %.9f", timestamp, t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
+  char line[256];
+  const int n = std::snprintf(line, sizeof(line), "%.6f %.9f %.9f %.9f %.9f %.9f %.9f %.9f", timestamp, t.x(), t.y(),
+                              t.z(), q.x(), q.y(), q.z(), q.w());
+  out.append(line, static_cast<size_t>(std::max(0, std::min(n, static_cast<int>(sizeof(line)) - 1))));
 }
 }  // namespace
 
+// Both are written through writeFileAtomically (core/atomic_file.hpp): a temporary file renamed
+// onto the target, so an interrupted run or a full disk never leaves half a trajectory.
 void writeTumTrajectory(const std::filesystem::path& path, const Trajectory& trajectory) {
-  writeTrajectoryFile(path, [&](std::FILE* f) {
-    std::fprintf(f, "# timestamp tx ty tz qx qy qz qw (world-from-camera)\n");
-    for (const auto& sp : trajectory) {
-      printPose(f, sp.timestamp, sp.T_w_c);
-      std::fprintf(f, "\n");
-    }
-  });
+  std::string text = "# timestamp tx ty tz qx qy qz qw (world-from-camera)\n";
+  text.reserve(text.size() + trajectory.size() * 100);
+  for (const auto& sp : trajectory) {
+    appendPose(text, sp.timestamp, sp.T_w_c);
+    text += '\n';
+  }
+  createFolderOf(path);
+  writeFileAtomically(path, text, "trajectory file");
 }
 
 void writeAtlasTrajectory(const std::filesystem::path& path, const AtlasTrajectory& trajectory) {
-  writeTrajectoryFile(path, [&](std::FILE* f) {
-    std::fprintf(f, "# timestamp tx ty tz qx qy qz qw map world_map (world-from-camera in world_map's world;\n"
-                    "# map: the atlas map the frame was tracked in, world_map: the map it was merged into or itself)\n");
-    for (const auto& sp : trajectory) {
-      printPose(f, sp.timestamp, sp.T_w_c);
-      std::fprintf(f, " %d %d\n", sp.map, sp.world_map);
-    }
-  });
+  std::string text =
+      "# timestamp tx ty tz qx qy qz qw map world_map (world-from-camera in world_map's world;\n"
+      "# map: the atlas map the frame was tracked in, world_map: the map it was merged into or itself)\n";
+  text.reserve(text.size() + trajectory.size() * 110);
+  for (const auto& sp : trajectory) {
+    appendPose(text, sp.timestamp, sp.T_w_c);
+    text += ' ' + std::to_string(sp.map) + ' ' + std::to_string(sp.world_map) + '\n';
+  }
+  createFolderOf(path);
+  writeFileAtomically(path, text, "trajectory file");
 }
 
 }  // namespace desslam::io

@@ -10,7 +10,8 @@ namespace desslam::io {
 
 // Throws InputError naming the file (and line) when it is missing or malformed.
 Trajectory readTumTrajectory(const std::filesystem::path& path);
-// Six decimals for timestamps (as the datasets write them), nine for pose values.
+// Six decimals for timestamps (as the datasets write them), nine for pose values. Written
+// atomically (core/atomic_file.hpp); throws OutputError naming the file and the reason.
 void writeTumTrajectory(const std::filesystem::path& path, const Trajectory& trajectory);
 // CameraTrajectory_all.txt: every frame of every map, "timestamp tx ty tz qx qy qz qw map
 // world_map" (TUM's eight columns, then the map the frame was tracked in and the map whose world

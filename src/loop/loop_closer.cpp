@@ -89,8 +89,15 @@ bool LoopCloser::correctLoop(const LoopMatch& match) {
   if (global_ba_mode_ == GlobalBaMode::kThread) {
     startGlobalBa(newest_in_graph);
   } else if (global_ba_mode_ == GlobalBaMode::kInline) {
+    // On the caller's thread: an exception goes straight to it.
     global_ba_running_ = true;
-    runGlobalBa(newest_in_graph);
+    try {
+      globalBa(newest_in_graph);
+    } catch (...) {
+      global_ba_running_ = false;
+      throw;
+    }
+    global_ba_running_ = false;
   }
   return true;
 }
@@ -350,12 +357,39 @@ void LoopCloser::abortGlobalBa() {
   global_ba_abort_ = false;
 }
 
-void LoopCloser::waitForGlobalBa() {
+bool LoopCloser::waitForGlobalBa(const std::atomic<bool>* abort) {
   std::unique_lock lock(ba_wait_mutex_);
-  ba_done_cv_.wait(lock, [&] { return !global_ba_running_.load(); });
+  if (abort == nullptr) {
+    ba_done_cv_.wait(lock, [&] { return !global_ba_running_.load(); });
+    return true;
+  }
+  // The abort flag may be set by a signal handler, which cannot notify: poll it.
+  while (!ba_done_cv_.wait_for(lock, std::chrono::milliseconds(20), [&] { return !global_ba_running_.load(); }))
+    if (abort->load()) return false;
+  return true;
+}
+
+std::exception_ptr LoopCloser::failure() const {
+  std::lock_guard lock(ba_wait_mutex_);
+  return global_ba_failure_;
 }
 
 void LoopCloser::runGlobalBa(uint64_t newest_keyframe) {
+  std::exception_ptr failure;
+  try {
+    globalBa(newest_keyframe);
+  } catch (...) {
+    failure = std::current_exception();
+  }
+  {
+    std::lock_guard lock(ba_wait_mutex_);
+    if (failure && !global_ba_failure_) global_ba_failure_ = failure;
+    global_ba_running_ = false;
+  }
+  ba_done_cv_.notify_all();
+}
+
+void LoopCloser::globalBa(uint64_t newest_keyframe) {
   const auto start = Clock::now();
   optim::MapBaProblem problem;
   {
@@ -428,61 +462,26 @@ void LoopCloser::runGlobalBa(uint64_t newest_keyframe) {
     std::lock_guard s(stats_mutex_);
     ++stats_.global_ba_aborted;
   }
-  {
-    std::lock_guard lock(ba_wait_mutex_);
-    global_ba_running_ = false;
-  }
-  ba_done_cv_.notify_all();
 }
 
 // ---------------------------------------------------------------- LoopClosingThread
 
 LoopClosingThread::LoopClosingThread(LoopCloser& closer, size_t capacity)
-    : closer_(closer), queue_(capacity, QueueFullPolicy::kDropOldest), worker_([this] { run(); }) {}
+    : closer_(closer),
+      worker_("loop closing", capacity, QueueFullPolicy::kDropOldest, [this](map::Keyframe*& kf) { closer_.process(kf); }) {}
 
 LoopClosingThread::~LoopClosingThread() { stop(); }
 
-void LoopClosingThread::push(map::Keyframe* kf) {
-  const size_t dropped_before = queue_.dropped();
-  ++pending_;
-  if (!queue_.push(kf)) {
-    --pending_;
-    return;
-  }
-  // A dropped keyframe will never be processed.
-  const size_t dropped_now = queue_.dropped();
-  if (dropped_now > dropped_before) {
-    {
-      std::lock_guard lock(idle_mutex_);
-      pending_ -= static_cast<int>(dropped_now - dropped_before);
-    }
-    idle_cv_.notify_all();
-  }
-}
+void LoopClosingThread::push(map::Keyframe* kf) { worker_.push(kf); }
 
 void LoopClosingThread::waitUntilIdle() {
-  {
-    std::unique_lock lock(idle_mutex_);
-    idle_cv_.wait(lock, [&] { return pending_.load() <= 0; });
-  }
+  worker_.waitUntilIdle();
   closer_.waitForGlobalBa();
 }
 
-void LoopClosingThread::stop() {
-  queue_.close();
-  if (worker_.joinable()) worker_.join();
-  closer_.waitForGlobalBa();
-}
-
-void LoopClosingThread::run() {
-  while (auto kf = queue_.pop()) {
-    closer_.process(*kf);
-    {
-      std::lock_guard lock(idle_mutex_);
-      --pending_;
-    }
-    idle_cv_.notify_all();
-  }
+void LoopClosingThread::stop(const std::atomic<bool>* abort) {
+  worker_.stop();
+  if (!closer_.waitForGlobalBa(abort)) closer_.abortGlobalBa();  // the worker has stopped: safe here
 }
 
 }  // namespace desslam::loop

@@ -40,6 +40,7 @@
 #include <vector>
 
 #include "core/bounded_queue.hpp"
+#include "core/queue_worker.hpp"
 #include "core/camera.hpp"
 #include "core/options.hpp"
 #include "place/keyframe_database.hpp"
@@ -110,8 +111,15 @@ class LoopCloser {
   // Applies a detected loop (exposed for tests that build the match themselves).
   bool correctLoop(const LoopMatch& match);
 
-  // Blocks until no global BA is running.
-  void waitForGlobalBa();
+  // Blocks until no global BA is running, or until *abort becomes true (then returns false and the
+  // BA may still run: abortGlobalBa() stops it).
+  bool waitForGlobalBa(const std::atomic<bool>* abort = nullptr);
+  // Stops a running global BA (its result is not applied) and joins its thread; the
+  // process() caller's thread only (or once that thread has stopped).
+  void abortGlobalBa();
+  // The exception the global-BA thread threw (null while none did); any thread. A failed global
+  // BA applies nothing and ends as an aborted one would.
+  std::exception_ptr failure() const;
   void setListener(std::function<void(const LoopEvent&)> listener);
   LoopClosingStats stats() const;  // a copy, safe from any thread
 
@@ -149,7 +157,7 @@ class LoopCloser {
   SE3 applyPoseGraph(const EssentialGraph& graph, bool usable, const map::Keyframe* current, int map_id, const SE3& C);
   void startGlobalBa(uint64_t newest_keyframe);
   void runGlobalBa(uint64_t newest_keyframe);
-  void abortGlobalBa();
+  void globalBa(uint64_t newest_keyframe);  // runGlobalBa's work (may throw)
   void notify(const LoopEvent& event);
 
   SystemOptions options_;
@@ -167,17 +175,20 @@ class LoopCloser {
   std::thread global_ba_thread_;      // touched only by the process() caller and the destructor
   std::atomic<bool> global_ba_abort_{false};
   std::atomic<bool> global_ba_running_{false};
-  std::mutex ba_wait_mutex_;
+  mutable std::mutex ba_wait_mutex_;  // the wait for global_ba_running_; guards global_ba_failure_
   std::condition_variable ba_done_cv_;
+  std::exception_ptr global_ba_failure_;
 
   mutable std::mutex stats_mutex_;    // guards stats_ and listener_
   LoopClosingStats stats_;
   std::function<void(const LoopEvent&)> listener_;
 };
 
-// The loop-closing thread: consumes keyframes that local mapping has finished, in order.
-// Queue: loop.queue_capacity, dropping the oldest when full (a skipped keyframe is only a missed
-// detection chance; local mapping must never wait for loop closing, which may be waiting for it).
+// The loop-closing thread: consumes keyframes that local mapping has finished, in order (a
+// QueueWorker). Queue: loop.queue_capacity, dropping the oldest when full (a skipped keyframe is
+// only a missed detection chance; local mapping must never wait for loop closing, which may be
+// waiting for it). An exception from loop closing stops the thread's work: failure() holds it
+// (and the global-BA thread's, LoopCloser::failure()) for the pipeline to rethrow.
 class LoopClosingThread {
  public:
   explicit LoopClosingThread(LoopCloser& closer, size_t capacity = 64);
@@ -185,17 +196,15 @@ class LoopClosingThread {
   void push(map::Keyframe* kf);
   // Blocks until every pushed keyframe is processed and no global BA runs.
   void waitUntilIdle();
-  void stop();  // drains the queue, waits for the global BA, joins. Idempotent.
-  size_t dropped() const { return queue_.dropped(); }
+  // Drains the queue, joins, waits for the global BA (aborted instead once *abort is true).
+  // Idempotent.
+  void stop(const std::atomic<bool>* abort = nullptr);
+  size_t dropped() const { return worker_.dropped(); }
+  std::exception_ptr failure() const { return worker_.failure(); }
 
  private:
-  void run();
   LoopCloser& closer_;
-  BoundedQueue<map::Keyframe*> queue_;
-  std::atomic<int> pending_{0};
-  std::mutex idle_mutex_;  // guards nothing but the idle_cv_ wait
-  std::condition_variable idle_cv_;
-  std::thread worker_;
+  QueueWorker<map::Keyframe*> worker_;  // last: its thread starts once closer_ is set
 };
 
 }  // namespace desslam::loop

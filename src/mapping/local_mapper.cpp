@@ -344,41 +344,38 @@ void LocalMapper::cullRedundantKeyframes(map::Keyframe* kf) {
 
 LocalMappingThread::LocalMappingThread(LocalMapper& mapper, MappingPause* pause,
                                        std::function<void(map::Keyframe*)> on_processed)
-    : mapper_(mapper), pause_(pause), on_processed_(std::move(on_processed)), worker_([this] { run(); }) {
+    : mapper_(mapper),
+      pause_(pause),
+      on_processed_(std::move(on_processed)),
+      worker_("local mapping", 8, QueueFullPolicy::kBlock, [this](map::Keyframe*& kf) { process(kf); }) {
   if (pause_ != nullptr) pause_->setAbortFlag(&abort_ba_);
 }
 
 LocalMappingThread::~LocalMappingThread() { stop(); }
 
 void LocalMappingThread::push(map::Keyframe* kf) {
-  ++pending_;
   abort_ba_ = true;  // a BA in progress yields to the newer keyframe
-  queue_.push(kf);
+  worker_.push(kf);  // refused (and not counted) once stopped or failed
 }
 
-void LocalMappingThread::waitUntilIdle() {
-  std::unique_lock lock(idle_mutex_);
-  idle_cv_.wait(lock, [&] { return pending_.load() == 0; });
-}
+void LocalMappingThread::stop() { worker_.stop(); }
 
-void LocalMappingThread::stop() {
-  queue_.close();
-  if (worker_.joinable()) worker_.join();
-}
-
-void LocalMappingThread::run() {
-  while (auto kf = queue_.pop()) {
-    if (pause_ != nullptr) pause_->enter();
-    abort_ba_ = queue_.size() > 0;
-    mapper_.process(*kf, &abort_ba_);
-    if (pause_ != nullptr) pause_->leave();
-    if (on_processed_) on_processed_(*kf);
-    {
-      std::lock_guard lock(idle_mutex_);
-      --pending_;
-    }
-    idle_cv_.notify_all();
+void LocalMappingThread::process(map::Keyframe* kf) {
+  {
+    // Left on the way out too: a failed keyframe must not keep loop closing waiting for the pause.
+    struct Bracket {
+      MappingPause* pause;
+      explicit Bracket(MappingPause* p) : pause(p) {
+        if (pause != nullptr) pause->enter();
+      }
+      ~Bracket() {
+        if (pause != nullptr) pause->leave();
+      }
+    } bracket(pause_);
+    abort_ba_ = worker_.queued() > 0;
+    mapper_.process(kf, &abort_ba_);
   }
+  if (on_processed_) on_processed_(kf);
 }
 
 }  // namespace desslam::mapping

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "core/bounded_queue.hpp"
+#include "core/queue_worker.hpp"
 #include "core/camera.hpp"
 #include "core/options.hpp"
 #include "place/keyframe_database.hpp"
@@ -65,35 +66,34 @@ class LocalMapper {
   LocalMappingStats stats_;
 };
 
-// The local mapping thread: consumes keyframes from tracking in order.
+// The local mapping thread: consumes keyframes from tracking in order (a QueueWorker).
 // Queue: capacity 8, blocking (tracking waits only if mapping falls 8 keyframes behind).
 // idle() is true when no keyframe is queued or being processed (a keyframe criterion).
 // pause (may be null): loop closing stops mapping between keyframes through it (each keyframe is
 // processed between pause->enter() and pause->leave()). on_processed (may be empty) receives each
 // keyframe after that, outside the pause (e.g. the loop-closing queue).
+// An exception from mapping (or on_processed) stops the thread's work: failure() holds it and the
+// pipeline rethrows it to its caller (core/queue_worker.hpp).
 class LocalMappingThread {
  public:
   explicit LocalMappingThread(LocalMapper& mapper, MappingPause* pause = nullptr,
                               std::function<void(map::Keyframe*)> on_processed = {});
   ~LocalMappingThread();
   void push(map::Keyframe* kf);
-  bool idle() const { return pending_.load() == 0; }
-  int backlog() const { return pending_.load(); }  // keyframes queued or being processed
-  // Blocks until every pushed keyframe has been processed.
-  void waitUntilIdle();
+  bool idle() const { return worker_.pending() <= 0; }
+  int backlog() const { return worker_.pending(); }  // keyframes queued or being processed
+  // Blocks until every pushed keyframe has been processed (or the thread failed).
+  void waitUntilIdle() { worker_.waitUntilIdle(); }
   void stop();  // drains the queue and joins
+  std::exception_ptr failure() const { return worker_.failure(); }
 
  private:
-  void run();
+  void process(map::Keyframe* kf);
   LocalMapper& mapper_;
   MappingPause* pause_;
   std::function<void(map::Keyframe*)> on_processed_;
-  BoundedQueue<map::Keyframe*> queue_{8, QueueFullPolicy::kBlock};
-  std::atomic<int> pending_{0};
   std::atomic<bool> abort_ba_{false};
-  std::mutex idle_mutex_;  // guards nothing but the idle_cv_ wait
-  std::condition_variable idle_cv_;
-  std::thread worker_;
+  QueueWorker<map::Keyframe*> worker_;  // last: its thread starts once the members above exist
 };
 
 }  // namespace desslam::mapping

@@ -13,6 +13,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include "core/atomic_file.hpp"
+#include "core/error.hpp"
 #include "core/options.hpp"
 #include "feature/descriptor.hpp"
 
@@ -420,17 +422,7 @@ void Vocabulary::save(const std::filesystem::path& path) const {
   putU64(out, fnv1a(out.data(), out.size()));
 
   // Written beside the target and renamed, so a failed write never leaves half a vocabulary.
-  std::filesystem::path tmp = path;
-  tmp += ".tmp";
-  {
-    std::ofstream file(tmp, std::ios::binary | std::ios::trunc);
-    if (!file) throw InputError("cannot write vocabulary file " + tmp.string() + ": check the folder exists and is writable");
-    file.write(reinterpret_cast<const char*>(out.data()), std::streamsize(out.size()));
-    if (!file) throw InputError("failed writing vocabulary file " + tmp.string() + " (disk full?)");
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) throw InputError("cannot move " + tmp.string() + " to " + path.string() + ": " + ec.message());
+  writeFileAtomically(path, std::string_view(reinterpret_cast<const char*>(out.data()), out.size()), "vocabulary file");
 }
 
 Vocabulary Vocabulary::load(const std::filesystem::path& path) {

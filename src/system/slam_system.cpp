@@ -10,6 +10,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "core/atomic_file.hpp"
+#include "core/error.hpp"
 #include "dense/dense_thread.hpp"
 #include "dense/map_export.hpp"
 #include "dense/memory_usage.hpp"
@@ -79,12 +81,15 @@ SlamSystem::SlamSystem(const SystemOptions& options, const RunSettings& settings
         options_.semantic.realtime_max_rate_hz);
   }
   if (!settings_.deterministic) {
-    std::function<void(map::Keyframe*)> to_loop_closing;
-    if (loop_closer_) {
+    if (loop_closer_)
       loop_thread_ = std::make_unique<loop::LoopClosingThread>(*loop_closer_, options_.loop.queue_capacity);
-      to_loop_closing = [this](map::Keyframe* kf) { loop_thread_->push(kf); };
-    }
-    mapping_thread_ = std::make_unique<mapping::LocalMappingThread>(mapper_, &mapping_pause_, std::move(to_loop_closing));
+    std::function<void(map::Keyframe*)> after_mapping;  // on the local-mapping thread
+    if (loop_thread_ || settings_.after_local_mapping)
+      after_mapping = [this](map::Keyframe* kf) {
+        if (settings_.after_local_mapping) settings_.after_local_mapping(kf->id);
+        if (loop_thread_) loop_thread_->push(kf);
+      };
+    mapping_thread_ = std::make_unique<mapping::LocalMappingThread>(mapper_, &mapping_pause_, std::move(after_mapping));
   }
   // The plain core (dynamic.mode off) has no dynamic-scene handling at all, in the dense map too.
   if (options_.dynamic.mode == "off") options_.dense.carve_free_space = false;
@@ -94,7 +99,25 @@ SlamSystem::SlamSystem(const SystemOptions& options, const RunSettings& settings
   if (!settings_.debug_images_dir.empty()) std::filesystem::create_directories(settings_.debug_images_dir);
 }
 
-SlamSystem::~SlamSystem() { finish(); }
+SlamSystem::~SlamSystem() {
+  try {
+    finish();
+  } catch (...) {  // a worker's failure nobody asked for: the threads are stopped all the same
+  }
+}
+
+void SlamSystem::rethrowWorkerFailure() {
+  if (failure_reported_) return;
+  const auto report = [this](const char* thread, const std::exception_ptr& failure) {
+    if (!failure) return;
+    failure_reported_ = true;
+    throw WorkerError(std::string("the ") + thread + " thread failed: " + exceptionMessage(failure), failure);
+  };
+  if (mapping_thread_) report("local-mapping", mapping_thread_->failure());
+  if (loop_thread_) report("loop-closing", loop_thread_->failure());
+  if (loop_closer_) report("global bundle adjustment", loop_closer_->failure());
+  if (dense_) report("dense-mapping", dense_->failure());
+}
 
 cv::Mat SlamSystem::maskFor(uint64_t frame_id, const std::vector<cv::KeyPoint>& keypoints, FrameStats& stats) {
   last_labels_ = cv::Mat();
@@ -156,6 +179,7 @@ int SlamSystem::topUpOutsideMask(const cv::Mat& gray, const cv::Mat& mask, std::
 
 void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv::Mat& depth,
                               const std::string& image_name, double depth_time_offset) {
+  rethrowWorkerFailure();
   const auto start = std::chrono::steady_clock::now();
   FrameStats stats;
   const uint64_t frame_id = next_frame_id_++;
@@ -186,6 +210,7 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   frame.dynamic_mask = dynamic_mask;
   if (!dynamic_mask.empty()) frame.mapping_margin_px = options_.dynamic.mapping_margin_px;
   stats.features = static_cast<int>(frame.features->size());
+  for (size_t i = 0; i < frame.features->size(); ++i) stats.features_with_depth += frame.features->hasDepth(i) ? 1 : 0;
   if (!frame.dynamic_mask.empty()) {
     const std::vector<uint8_t> in_mask = dynamic::featuresInMask(*frame.features, frame.dynamic_mask);
     const bool semantic_only = options_.dynamic.mode == "semantic";
@@ -234,15 +259,18 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
     }
     else {
       mapper_.process(outcome.new_keyframe, nullptr);
+      if (settings_.after_local_mapping) settings_.after_local_mapping(outcome.new_keyframe->id);
       if (loop_closer_) loop_closer_->process(outcome.new_keyframe);
     }
   }
   if (!settings_.debug_images_dir.empty()) {
     const std::filesystem::path path = settings_.debug_images_dir / image_name;
-    cv::imwrite(path.string(), drawDynamicDebugView(bgr, frame.dynamic_mask, frame));
+    const cv::Mat view = drawDynamicDebugView(bgr, frame.dynamic_mask, frame);
+    writeFileAtomicallyVia(path, "debug image", [&](const std::filesystem::path& tmp) { return cv::imwrite(tmp.string(), view); });
   }
   stats.total_ms = millisecondsSince(start);
   frames_.push_back(stats);
+  rethrowWorkerFailure();
 }
 
 void SlamSystem::pushDenseKeyframe(const map::Keyframe* kf, const map::Frame& frame, const cv::Mat& bgr,
@@ -294,21 +322,31 @@ void SlamSystem::pushDenseKeyframe(const map::Keyframe* kf, const map::Frame& fr
   for (auto& k : ready) dense_->push(std::move(k));
 }
 
-void SlamSystem::finish() {
+void SlamSystem::finish(const FinishControl& control) {
   if (finished_) return;
   finished_ = true;
+  const auto stage = [&control](const char* name) { return !control.on_stage || control.on_stage(name); };
+  const auto aborted = [&control] { return control.abort != nullptr && control.abort->load(); };
+  stage("mapping");
   if (semantic_) semantic_->stop();
   if (mapping_thread_) mapping_thread_->stop();
-  if (loop_thread_) loop_thread_->stop();  // drains its queue and waits for a global BA
-  if (loop_closer_) loop_closer_->waitForGlobalBa();
-  if (options_.mapping.final_global_ba) {
+  if (loop_thread_) loop_thread_->stop(control.abort);  // drains its queue and waits for a global BA
+  if (loop_closer_ && !loop_closer_->waitForGlobalBa(control.abort)) loop_closer_->abortGlobalBa();
+  const bool worker_failed = [this] {
+    return (mapping_thread_ && mapping_thread_->failure()) || (loop_thread_ && loop_thread_->failure()) ||
+           (loop_closer_ && loop_closer_->failure());
+  }();
+  // After a failed worker the map may be half-updated: no final BA on it.
+  if (options_.mapping.final_global_ba && !worker_failed && stage("final_ba") && !aborted()) {
     optim::BundleAdjustmentOptions ba;
     ba.bf = camera_.fx() * options_.tracking.depth_baseline;
     ba.iterations = options_.mapping.global_ba_iterations;
     ba.threads = 2;  // nothing else runs now but the dense thread finishing its queue
-    final_ba_ = optim::globalBundleAdjustment(map_, camera_, ba);
+    final_ba_ = optim::globalBundleAdjustment(map_, camera_, ba, control.abort);
   }
+  stage("dense");
   if (dense_) dense_->waitUntilIdle();
+  rethrowWorkerFailure();
 }
 
 int SlamSystem::mainMapLocked() const {
@@ -443,6 +481,7 @@ nlohmann::json SlamSystem::statistics() const {
                          {"tracking_ms", f.extraction_ms + f.tracking_ms}, {"tracked", f.tracked},
                          {"keyframe", f.keyframe}, {"inliers", f.inliers}, {"motion_model", f.motion_model},
                          {"timestamp", f.timestamp}, {"map", f.map}, {"new_map", f.new_map},
+                         {"features_with_depth", f.features_with_depth},
                          {"weak", f.weak}, {"predicted", f.predicted}});
     if (f.reloc_candidates >= 0)
       per_frame.back()["relocalisation"] = {{"candidates", f.reloc_candidates}, {"best_matches", f.reloc_matches},
@@ -532,8 +571,12 @@ nlohmann::json SlamSystem::statistics() const {
   return j;
 }
 
-nlohmann::json SlamSystem::exportDenseMap(const std::filesystem::path& out_dir, bool semantic_colour) const {
+nlohmann::json SlamSystem::exportDenseMap(const std::filesystem::path& out_dir, bool semantic_colour,
+                                          const std::atomic<bool>* abort) const {
   if (!dense_) return {{"enabled", false}};
+  const auto aborted = [abort] { return abort != nullptr && abort->load(); };
+  if (aborted())
+    return {{"enabled", true}, {"exported", false}, {"note", "skipped: the run was interrupted twice"}};
   const auto start = std::chrono::steady_clock::now();
   const size_t peak_before_export = dense::peakResidentBytes();
   dense::PoseMap poses;
@@ -568,22 +611,47 @@ nlohmann::json SlamSystem::exportDenseMap(const std::filesystem::path& out_dir, 
   const dense::DenseCloud exported = dense->exportCloud(poses);
   const double cloud_ms = millisecondsSince(start);
   const std::shared_ptr<open3d::geometry::PointCloud> cloud = dense::toOpen3d(exported, semantic_colour);
+  const dense::DenseMapStats stats = dense->mapStats();
+  if (cloud->points_.empty())
+    return {{"enabled", true},
+            {"exported", false},
+            {"keyframes", stats.keyframes},
+            {"map_points", 0},
+            {"note", "the dense map is empty (" + std::to_string(stats.keyframes) +
+                         " keyframes mapped): no dense map files written"}};
+  // The point cloud, its PCD copy and the sidecar are one set (mapcheck reads them together);
+  // the OctoMap and the PNG follow, each skipped once the run is interrupted a second time.
+  nlohmann::json files = nlohmann::json::array(), skipped = nlohmann::json::array();
   dense::writePly(out_dir / "dense_map.ply", *cloud);
   dense::writePcd(out_dir / "dense_map.pcd", *cloud);
   dense::writeMapSources(out_dir / "dense_map_sources.bin", exported.first_seen);
-  const auto octomap_start = std::chrono::steady_clock::now();
-  dense::writeOctomap(out_dir / "octomap.bt", dense->worldScans(poses), options_.dense.octomap_resolution,
-                      options_.dense.max_depth);
-  const double octomap_ms = millisecondsSince(octomap_start);
-  dense::RenderSettings render;
-  render.width = options_.dense.render_width;
-  render.height = options_.dense.render_height;
-  render.point_size = options_.dense.voxel_size;
-  dense::renderPng(out_dir / "dense_map.png", *cloud, camera_path, render);
-  const dense::DenseMapStats stats = dense->mapStats();
+  files = {"dense_map.ply", "dense_map.pcd", "dense_map_sources.bin"};
+  double octomap_ms = 0;
+  if (aborted()) {
+    skipped.push_back("octomap.bt");
+  } else {
+    const auto octomap_start = std::chrono::steady_clock::now();
+    dense::writeOctomap(out_dir / "octomap.bt", dense->worldScans(poses), options_.dense.octomap_resolution,
+                        options_.dense.max_depth);
+    octomap_ms = millisecondsSince(octomap_start);
+    files.push_back("octomap.bt");
+  }
+  if (aborted()) {
+    skipped.push_back("dense_map.png");
+  } else {
+    dense::RenderSettings render;
+    render.width = options_.dense.render_width;
+    render.height = options_.dense.render_height;
+    render.point_size = options_.dense.voxel_size;
+    dense::renderPng(out_dir / "dense_map.png", *cloud, camera_path, render);
+    files.push_back("dense_map.png");
+  }
   // The free-space-violation share needs the keyframes' depth images, which the dense thread
   // does not keep (that is what bounds its memory): `desslam mapcheck` computes it.
   return {{"enabled", true},
+          {"exported", true},
+          {"files", files},
+          {"skipped", skipped},
           {"keyframes", stats.keyframes},
           {"keyframes_culled", stats.culled},
           {"stored_voxels", stats.voxels},

@@ -9,7 +9,9 @@
 // newest one carried forward along optical flow.
 #pragma once
 
+#include <atomic>
 #include <deque>
+#include <functional>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -49,6 +51,21 @@ struct RunSettings {
   // masks, reproducible with `deterministic` (real time itself depends on the CPU's load).
   int mask_latency_frames = 0;
   int mask_period_frames = 1;
+  // Called after local mapping has processed each keyframe, on the thread that mapped it (the
+  // local-mapping thread, or the caller when deterministic), with the keyframe's id. For tests and
+  // tools (e.g. a fault injected there must reach processFrame's or finish()'s caller).
+  std::function<void(uint64_t keyframe_id)> after_local_mapping;
+};
+
+// How finish() ends a run that is being interrupted (all optional).
+struct FinishControl {
+  // Once true (any thread; e.g. a signal handler's flag), a running global BA (the loop closer's
+  // or the final one) is aborted and the final BA is not started.
+  const std::atomic<bool>* abort = nullptr;
+  // Called on the caller's thread before each stage of finish(): "mapping" (local mapping and loop
+  // closing drain their queues; always runs), "final_ba" (mapping.final_global_ba) and "dense"
+  // (the dense thread drains its queue; always runs). Returning false skips "final_ba".
+  std::function<bool(const std::string& stage)> on_stage;
 };
 
 // Per-frame record for the report, milliseconds and counts.
@@ -61,6 +78,7 @@ struct FrameStats {
   int mask_age = -1;         // frames between the mask's frame and this one (0 = fresh, -1 = no mask)
   int mask_radius_px = -1;   // dilation (+ growth of a carried mask) applied to it
   int features_added_outside_mask = 0;  // extra features on the background (a mask covered most)
+  int features_with_depth = 0;  // keypoints with a valid depth reading (tracking.min/max_depth)
   int features = 0, in_mask = 0, semantic_removed = 0, stage1_checked = 0, stage1_removed = 0, stage2_removed = 0;
   int free_space_removed = 0;  // of stage1_removed: the free-space test outside the mask
   bool tracked = false;
@@ -88,8 +106,15 @@ class SlamSystem {
   // timestamps' difference); tracking compensates it during fast motion.
   void processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv::Mat& depth, const std::string& image_name,
                     double depth_time_offset = 0);
-  // Waits for mapping to finish its queue and stops the threads. Idempotent.
-  void finish();
+  // Both throw WorkerError (once) when a worker thread (local mapping, loop closing, global BA,
+  // dense mapping) has failed; the system then maps nothing more, but finish() still stops every
+  // thread and the trajectories, statistics and export read what was built until then.
+  //
+  // Waits for mapping to finish its queue, runs the final global BA and stops the threads.
+  // Idempotent (a second call does nothing).
+  void finish(const FinishControl& control = {});
+  // Whether finish() ran the final global BA to its end (false: off, skipped or aborted).
+  bool finalBundleAdjustmentDone() const { return final_ba_.completed; }
 
   // Poses (world-from-camera, following the final keyframe poses) of the frames of the main map:
   // the map of the atlas that, after all merges, holds the most frames (the earliest on a tie).
@@ -98,8 +123,12 @@ class SlamSystem {
   AtlasTrajectory cameraTrajectoryAll() const;
   Trajectory keyframeTrajectory() const;
   // After finish(): fuses the dense map with the final keyframe poses and writes dense_map.ply,
-  // dense_map.pcd, octomap.bt and dense_map.png into out_dir. Returns counts and timings.
-  nlohmann::json exportDenseMap(const std::filesystem::path& out_dir, bool semantic_colour) const;
+  // dense_map.pcd, dense_map_sources.bin, octomap.bt and dense_map.png into out_dir. Returns counts
+  // and timings. An empty dense map (no keyframe) writes nothing and says so ("exported": false,
+  // "note"). Once *abort is true (checked between files), the files still to come are skipped
+  // ("skipped" lists them). Files are written atomically; a failure throws OutputError.
+  nlohmann::json exportDenseMap(const std::filesystem::path& out_dir, bool semantic_colour,
+                                const std::atomic<bool>* abort = nullptr) const;
   // After finish(): counts, timings (median/p95) and stage statistics for report.json.
   nlohmann::json statistics() const;
 
@@ -116,6 +145,8 @@ class SlamSystem {
                        cv::Mat& descriptors) const;
   // The live map holding the most tracked frames (-1: none). Map lock held shared.
   int mainMapLocked() const;
+  // Throws WorkerError for the first failed worker thread, once (later calls return).
+  void rethrowWorkerFailure();
   // The atlas for report.json: maps, merges. Map lock taken here.
   nlohmann::json atlasJson() const;
   // Hands the keyframe to the dense thread, or holds it while its map is not the dense map's
@@ -161,6 +192,7 @@ class SlamSystem {
   std::vector<FrameStats> frames_;
   uint64_t next_frame_id_ = 0;
   bool finished_ = false;
+  bool failure_reported_ = false;  // a worker's failure has been thrown to the caller
   optim::GlobalBaResult final_ba_;  // the bundle adjustment finish() runs (empty when off)
 };
 

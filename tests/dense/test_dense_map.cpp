@@ -284,7 +284,7 @@ TEST_F(ExportTest, PlyAndPcdReadBackWithTheSamePointsAndColours) {
     EXPECT_NEAR((back->points_[10] - cloud->points_[10]).norm(), 0.0, 1e-5) << name;
     EXPECT_NEAR((back->colors_[10] - cloud->colors_[10]).norm(), 0.0, 1.0 / 255) << name;
   }
-  EXPECT_THROW(writePly(dir / "missing_folder" / "map.ply", *cloud), InputError);
+  EXPECT_THROW(writePly(dir / "missing_folder" / "map.ply", *cloud), OutputError);
   EXPECT_THROW(readPointCloud(dir / "nothing.ply"), InputError);
 }
 
@@ -307,7 +307,7 @@ TEST_F(ExportTest, OctomapFromRaysHasOccupiedWallAndFreeSpaceBeforeIt) {
   EXPECT_TRUE(points.free_centres.empty());
 
   EXPECT_THROW(readOctomap(dir / "map.ply"), InputError);
-  EXPECT_THROW(writeOctomap(dir / "no" / "map.bt", map.worldScans(), resolution, 5.0), InputError);
+  EXPECT_THROW(writeOctomap(dir / "no" / "map.bt", map.worldScans(), resolution, 5.0), OutputError);
 }
 
 TEST_F(ExportTest, RendererKeepsTheNearerSurfaceAndWritesAPng) {

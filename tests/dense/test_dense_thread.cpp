@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <open3d/geometry/PointCloud.h>
 
+#include "core/error.hpp"
 #include "dense/dense_thread.hpp"
 #include "dense_test_support.hpp"
 
@@ -88,6 +89,24 @@ TEST(DenseMappingThread, StopMapsWhatIsStillQueued) {
   thread.stop();
   EXPECT_EQ(thread.keyframeCount(), 4u);
   EXPECT_GT(thread.fuse()->points_.size(), 0u);
+}
+
+// A keyframe the worker cannot map (here: a depth image of the wrong size) used to end the
+// program (std::terminate); now the worker keeps the exception for the pipeline and stays usable.
+TEST(DenseMappingThread, FailureIsKeptAndTheThreadGoesIdle) {
+  const PinholeCamera camera(smallCamera(80, 60));
+  DenseMappingThread thread(threadOptions(), camera, QueueFullPolicy::kBlock);
+  ASSERT_TRUE(thread.push(wallKeyframe(camera, 0)));
+  auto bad = std::make_shared<DenseKeyframe>(*wallKeyframe(camera, 1));
+  bad->depth = cv::Mat(10, 10, CV_32F, cv::Scalar(1.0f));
+  ASSERT_TRUE(thread.push(bad));
+  thread.waitUntilIdle();
+  ASSERT_TRUE(thread.failure());
+  EXPECT_THROW(std::rethrow_exception(thread.failure()), InputError);
+  EXPECT_FALSE(thread.push(wallKeyframe(camera, 2)));  // nothing more is mapped
+  thread.waitUntilIdle();
+  EXPECT_EQ(thread.keyframeCount(), 1u);  // what was mapped before stays
+  thread.stop();
 }
 
 }  // namespace

@@ -156,7 +156,7 @@ TEST(MapSources, RoundTripAndClearErrors) {
   expectError([&] { readMapSources(dir.path() / "bad.bin"); }, "not a dense-map sidecar");
   fs::resize_file(dir.path() / "s.bin", fs::file_size(dir.path() / "s.bin") - 8);
   expectError([&] { readMapSources(dir.path() / "s.bin"); }, "truncated");
-  EXPECT_THROW(writeMapSources(dir.path() / "missing" / "s.bin", times), InputError);
+  EXPECT_THROW(writeMapSources(dir.path() / "missing" / "s.bin", times), OutputError);
 }
 
 // ---- the map check on a run folder ----------------------------------------------------------

@@ -3,7 +3,15 @@
 // captured.
 #pragma once
 
+#include <fcntl.h>
+#include <signal.h>
 #include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <thread>
+#include <utility>
+#include <vector>
 
 #include <cstdlib>
 #include <filesystem>
@@ -103,6 +111,75 @@ inline CommandResult runCommand(const std::string& command, const std::filesyste
   r.out = readText(out_file);
   r.err = readText(err_file);
   return r;
+}
+
+// A child process started with stdout and stderr in files (for signalling it while it runs).
+struct ChildProcess {
+  pid_t pid = -1;
+  std::filesystem::path out_file, err_file;
+
+  // Waits until stderr contains `text` (true) or the child ended or timeout_s passed (false).
+  bool waitForStderr(const std::string& text, double timeout_s = 120) const {
+    const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    while (std::chrono::steady_clock::now() < until) {
+      if (readText(err_file).find(text) != std::string::npos) return true;
+      siginfo_t info{};
+      if (::waitid(P_PID, static_cast<id_t>(pid), &info, WEXITED | WNOHANG | WNOWAIT) == 0 && info.si_pid == pid)
+        return false;  // ended (and left to wait() to reap)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return false;
+  }
+  void signal(int signal_number) const { ::kill(pid, signal_number); }
+  // Waits for the child (killed after timeout_s) and returns its status and output.
+  CommandResult wait(double timeout_s = 120) const {
+    const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    int status = 0;
+    pid_t done = 0;
+    while ((done = ::waitpid(pid, &status, WNOHANG)) == 0 && std::chrono::steady_clock::now() < until)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    if (done == 0) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, &status, 0);
+    }
+    CommandResult r;
+    if (WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
+    if (WIFSIGNALED(status)) {
+      r.exit_code = 128 + WTERMSIG(status);
+      r.signaled = true;
+    }
+    r.out = readText(out_file);
+    r.err = readText(err_file);
+    if (done == 0) r.err += "\n[test: killed after " + std::to_string(timeout_s) + " s]";
+    return r;
+  }
+};
+
+// Starts argv[0] with the arguments argv[1..] (no shell) and `env` added to the environment.
+inline ChildProcess spawnProcess(const std::vector<std::string>& argv, const std::filesystem::path& scratch,
+                                 const std::vector<std::pair<std::string, std::string>>& env = {}) {
+  std::filesystem::create_directories(scratch);
+  ChildProcess child;
+  child.out_file = scratch / "stdout.txt";
+  child.err_file = scratch / "stderr.txt";
+  std::vector<char*> args;
+  for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  const std::string out = child.out_file.string(), err = child.err_file.string();
+  child.pid = ::fork();
+  if (child.pid == 0) {
+    const int out_fd = ::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    const int err_fd = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    const int null_fd = ::open("/dev/null", O_RDONLY);
+    if (out_fd < 0 || err_fd < 0 || null_fd < 0) ::_exit(126);
+    ::dup2(null_fd, 0);
+    ::dup2(out_fd, 1);
+    ::dup2(err_fd, 2);
+    for (const auto& [name, value] : env) ::setenv(name.c_str(), value.c_str(), 1);
+    ::execv(args[0], args.data());
+    ::_exit(127);
+  }
+  return child;
 }
 
 #ifdef DESSLAM_BINARY

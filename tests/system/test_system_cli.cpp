@@ -129,9 +129,15 @@ TEST_F(DesslamCli, RunWritesTrajectoriesAndReport) {
   ASSERT_TRUE(report.contains("rpe"));
   EXPECT_GT(report["rpe"]["pairs"].get<size_t>(), 0u);
 
+  EXPECT_EQ(report["interrupted"], false);
+  EXPECT_EQ(report["exit_code"], 0);
+  EXPECT_FALSE(report.contains("error"));
+
   // No temporary files left behind.
-  for (const auto& entry : fs::directory_iterator(out()))
+  for (const auto& entry : fs::directory_iterator(out())) {
     EXPECT_NE(entry.path().extension(), ".tmp") << entry.path();
+    EXPECT_EQ(entry.path().filename().string().rfind(".desslam-tmp", 0), std::string::npos) << entry.path();
+  }
 }
 
 TEST_F(DesslamCli, EvalReadsWhatRunWrote) {
@@ -226,7 +232,14 @@ TEST_F(DesslamCli, CorruptRgbImageIsNamed) {
   std::ofstream(sequence() / rgb[1], std::ios::binary | std::ios::trunc) << "this is not a PNG \x01\x02\x03";
   const CommandResult r = run();
   expectCleanFailure(r);
+  EXPECT_EQ(r.exit_code, 1);  // exit_code::kBadInput
   EXPECT_CONTAINS(r.err, fs::path(rgb[1]).filename().string());
+  // The run ends with what it computed: the first frame's trajectory and a report naming the error.
+  nlohmann::json report;
+  ASSERT_NO_THROW(report = nlohmann::json::parse(test::readText(out() / "report.json")));
+  EXPECT_NE(report["error"].get<std::string>().find(fs::path(rgb[1]).filename().string()), std::string::npos);
+  EXPECT_EQ(report["statistics"]["counts"]["frames"].get<size_t>(), 1u);
+  EXPECT_TRUE(fs::exists(out() / "CameraTrajectory.txt"));
 }
 
 TEST_F(DesslamCli, EightBitDepthImageIsNamed) {
@@ -352,7 +365,7 @@ TEST_F(DesslamCli, EvalWithMissingFileIsNamed) {
 
 TEST_F(DesslamCli, MissingArgumentsPrintUsage) {
   const CommandResult r = desslam("run");
-  EXPECT_NE(r.exit_code, 0);
+  EXPECT_EQ(r.exit_code, 2);  // exit_code::kUsage
   EXPECT_FALSE(r.signaled);
   EXPECT_CONTAINS(r.err + r.out, "sequence");
 }
