@@ -472,7 +472,11 @@ XnnpackNetwork::XnnpackNetwork(const onnx::Model& model, int threads) : impl_(st
       impl_->pool = pthreadpool_create(std::size_t(threads));
       if (impl_->pool == nullptr) throw XnnpackError("pthreadpool_create failed");
     }
-    check(xnn_create_runtime_v2(subgraph, impl_->pool, 0, &impl_->runtime), "runtime creation");
+    // With a pool, its workers go back to the scheduler after each inference instead of spinning:
+    // on 2 cores they would take CPU time from tracking between frames.
+    check(xnn_create_runtime_v2(subgraph, impl_->pool, impl_->pool != nullptr ? XNN_FLAG_YIELD_WORKERS : 0,
+                                &impl_->runtime),
+          "runtime creation");
   } catch (...) {
     xnn_delete_subgraph(subgraph);
     throw;
