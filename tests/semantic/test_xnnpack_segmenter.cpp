@@ -93,6 +93,15 @@ TEST(SemanticBackendOption, NoBackendIsBuiltForOtherSegmenters) {
   EXPECT_EQ(makeSegmenter(options), nullptr);
 }
 
+TEST(SemanticBackendOption, XnnpackInABuildWithoutItSaysHowToGetIt) {
+  if (haveXnnpackBackend()) GTEST_SKIP() << "this build has the XNNPACK backend";
+  SemanticOptions options;
+  options.backend = "xnnpack";
+  const std::string message = configErrorOf(options);
+  EXPECT_NE(message.find("libxnnpack-dev"), std::string::npos) << message;
+  EXPECT_NE(message.find("semantic.backend = opencv"), std::string::npos) << message;
+}
+
 // --- model errors -------------------------------------------------------------------------
 
 TEST(XnnpackModel, MissingModelNamesPathHashAndFix) {
