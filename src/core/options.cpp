@@ -94,6 +94,8 @@ void SemanticOptions::validate() const {
   const char* s = kSection;
   requireThat(segmenter == "deeplab" || segmenter == "mask_dir" || segmenter == "none", s, "segmenter",
               "'" + segmenter + "' is not one of deeplab, mask_dir, none");
+  requireThat(backend == "opencv" || backend == "xnnpack", s, "backend",
+              "'" + backend + "' is not one of opencv, xnnpack");
   requireThat(segmenter != "mask_dir" || !mask_dir.empty(), s, "mask_dir",
               "segmenter is mask_dir but no mask_dir is given");
   requireThat(!dynamic_classes.empty(), s, "dynamic_classes", "needs at least one class id (15 = person)");

@@ -1,5 +1,6 @@
-// DeepLabV3-MobileNetV2 (PASCAL VOC, 21 classes) through OpenCV dnn, CPU backend.
-// The model file is described in ../shared/models/README.md.
+// DeepLabV3-MobileNetV2 (PASCAL VOC, 21 classes) through OpenCV dnn, CPU backend
+// (semantic.backend = opencv, the reference). The model file is described in
+// ../shared/models/README.md; model lookup, input and output steps are in deeplab_common.hpp.
 #pragma once
 
 #include <filesystem>
@@ -7,23 +8,10 @@
 #include <string>
 #include <vector>
 
+#include "semantic/deeplab_common.hpp"
 #include "semantic/segmenter.hpp"
 
 namespace desslam::semantic {
-
-inline constexpr const char* kDeepLabModelFile = "deeplabv3_mnv2_voc_257.onnx";
-inline constexpr int kDeepLabInputSize = 257;
-inline constexpr int kVocClassCount = 21;
-inline constexpr int kVocPerson = 15;
-
-// Where the model is looked for, in order:
-//   1. options.model_path when set (only there);
-//   2. $DESSLAM_SHARED_DIR/models/<file>;
-//   3. ../shared/models/<file> relative to the working directory;
-//   4. <executable dir>/../../shared/models/<file>.
-// Returns the first that exists, or an empty path; `tried` (if given) receives every candidate.
-std::filesystem::path resolveModelPath(const SemanticOptions& options,
-                                       std::vector<std::filesystem::path>* tried = nullptr);
 
 class DeepLabSegmenter final : public Segmenter {
  public:
