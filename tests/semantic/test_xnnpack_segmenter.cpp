@@ -52,8 +52,8 @@ SemanticOptions xnnpackOptions(const std::string& model_path) {
 
 // --- option -------------------------------------------------------------------------------
 
-TEST(SemanticBackendOption, DefaultsToTheOpenCvReference) {
-  EXPECT_EQ(SemanticOptions{}.backend, "opencv");
+TEST(SemanticBackendOption, DefaultsToXnnpack) {
+  EXPECT_EQ(SemanticOptions{}.backend, "xnnpack");
 }
 
 TEST(SemanticBackendOption, AcceptsBothBackends) {
