@@ -39,8 +39,9 @@ Trajectory parseTumTrajectory(std::istream& in, const std::string& name, std::ve
     const std::string where = name + ":" + std::to_string(line_number);
     std::istringstream fields(line);
     double v[8];
+    std::string tokens[8];
     for (int k = 0; k < 8; ++k) {
-      std::string token;
+      std::string& token = tokens[k];
       if (!(fields >> token))
         throw InputError(where + ": expected 8 numbers 'timestamp tx ty tz qx qy qz qw', got " + std::to_string(k));
       // strtod reads nan and inf too, so that they are named as such rather than "not a number".
@@ -55,7 +56,7 @@ Trajectory parseTumTrajectory(std::istream& in, const std::string& name, std::ve
     }
     for (int k = 1; k <= 3; ++k)
       if (std::abs(v[k]) > kMaxPosition)
-        throw InputError(where + ": " + kColumns[k] + " = " + std::to_string(v[k]) +
+        throw InputError(where + ": " + kColumns[k] + " = " + tokens[k] +
                          " m is beyond 1e6 m: not a camera position (broken file?)");
     const double t = v[0], tx = v[1], ty = v[2], tz = v[3], qx = v[4], qy = v[5], qz = v[6], qw = v[7];
     const double qnorm = std::sqrt(qx * qx + qy * qy + qz * qz + qw * qw);
