@@ -1,5 +1,6 @@
 // `desslam eval <groundtruth> <estimate>`: ATE and RPE of a TUM-format estimate, as a table or
 // JSON. The work is in desslam_eval; this file only wires arguments to it.
+#include <cmath>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -7,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "core/error.hpp"
 #include "eval/evaluation.hpp"
 #include "io/trajectory_io.hpp"
 
@@ -27,6 +29,12 @@ void runEval(const EvalArgs& args) {
   const Trajectory est = io::readTumTrajectory(args.estimate);
   const eval::AteResult ate = eval::computeAte(gt, est, args.max_dt);
   const eval::RpeResult rpe = eval::computeRpe(gt, est, args.delta_s, args.max_dt);
+  // The readers refuse non-finite poses; a result that still is not finite (poses so far apart
+  // that squares overflow) is bad input too, never a table of inf and nan.
+  const nlohmann::json results = {{"ate", eval::toJson(ate)}, {"rpe", eval::toJson(rpe)}};
+  if (results.dump().find("null") != std::string::npos || !std::isfinite(ate.translation_m.rmse))
+    throw InputError("the ATE/RPE of " + args.estimate + " against " + args.groundtruth +
+                     " is not finite: check both files for implausibly large coordinates");
 
   if (!args.aligned_path.empty()) {
     Trajectory aligned = est;
@@ -55,8 +63,11 @@ void registerEvalCommand(CLI::App& app) {
   cmd->add_option("estimate", args->estimate, "Estimated trajectory, e.g. CameraTrajectory.txt")->required();
   cmd->add_flag("--json", args->json, "Print one JSON object instead of a table");
   cmd->add_option("--max-dt", args->max_dt, "Largest timestamp difference for associating poses (s)")
+      ->check(finiteRange(1e-6, 10.0))
       ->capture_default_str();
-  cmd->add_option("--delta", args->delta_s, "RPE window (s); TUM's RGB-D default is 1 s")->capture_default_str();
+  cmd->add_option("--delta", args->delta_s, "RPE window (s); TUM's RGB-D default is 1 s")
+      ->check(finiteRange(1e-3, 1e6))
+      ->capture_default_str();
   cmd->add_option("--aligned", args->aligned_path, "Write the estimate aligned to the ground truth (TUM format)");
   cmd->callback([args] { runEval(*args); });
 }

@@ -86,9 +86,11 @@ void registerMapCheckCommand(CLI::App& app) {
   cmd->add_option("--config,-c", args->config, "Camera YAML of the run (default: the one named in report.json)");
   cmd->add_flag("--json", args->json, "Print one JSON object instead of a table");
   cmd->add_option("--tolerance", args->tolerance, "Metres the observed depth may lie beyond a point")
+      ->check(finiteRange(1e-4, 10.0))
       ->capture_default_str();
   cmd->add_option("--window", args->window_radius_px,
                   "Seen through only if every reading within this many pixels is beyond the point")
+      ->check(CLI::Range(0, 50))
       ->capture_default_str();
   cmd->callback([args] { runMapCheck(*args); });
 }

@@ -41,6 +41,7 @@
 #include "io/config.hpp"
 #include "io/trajectory_io.hpp"
 #include "io/tum_dataset.hpp"
+#include "plausibility/sequence_check.hpp"
 #include "system/slam_system.hpp"
 
 namespace desslam::app {
@@ -62,6 +63,7 @@ struct RunArgs {
   int mask_latency = 0;     // --emulate-mask-latency
   int mask_period = 1;      // --emulate-mask-period
   bool overwrite = false;   // --overwrite: replace an earlier run's outputs in --out
+  bool force = false;       // --force: implausible input (depth scale) is a warning, not an error
 };
 
 // Frames [first, last] (0-based indices into the paired frame list) withheld from the system.
@@ -310,6 +312,24 @@ int runSequence(const RunArgs& args) {
   if (args.deterministic && args.realtime)
     throw ConfigError("--deterministic and --realtime exclude each other: real-time mode never waits for a stage");
   prepareOutputFolder(out_dir, args.overwrite);
+  nlohmann::json plausibility_report = {{"enabled", options.plausibility.enabled}};
+  if (options.plausibility.enabled && frame_count > 0) {
+    const plausibility::CheckResult check =
+        plausibility::checkSequence(sequence, options.camera, options.plausibility, frame_count);
+    plausibility_report.update(check.toJson());
+    plausibility_report["forced"] = args.force && check.hasError();
+    if (check.hasError() && !args.force) throw ConfigError(check.firstError());
+    for (const plausibility::Finding& finding : check.findings) {
+      if (finding.error)
+        std::fprintf(stderr,
+                     "\n*** WARNING (--force): continuing although the input looks wrong ***\n%s\n"
+                     "*** the trajectory and map will be in the wrong scale if this is right ***\n\n",
+                     finding.message.c_str());
+      else
+        std::fprintf(stderr, "warning: %s\n", finding.message.c_str());
+    }
+    std::fflush(stderr);
+  }
   std::vector<size_t> input_index;  // per frame given to the system: its index in the sequence
 
   system::RunSettings settings;
@@ -336,7 +356,6 @@ int runSequence(const RunArgs& args) {
       if (interruption.interrupted()) return;
       if (skipped && skipped->contains(i)) continue;
       io::RgbdImage image = sequence.load(i, options.camera);
-      if (input_index.empty()) io::checkDepthScale(image.depth, sequence.record(i).depth_path, options.camera.depth_factor);
       if (args.realtime) {
         // Frames arrive at the sensor's rate: wait for this frame's time, never skip one.
         const double due_s = sequence.record(i).rgb_timestamp - sequence.record(0).rgb_timestamp;
@@ -403,6 +422,7 @@ int runSequence(const RunArgs& args) {
   report["wall_seconds"] = wall_s;
   report["frames_per_second"] = slam.framesProcessed() / std::max(wall_s, 1e-9);
   report["input_warnings"] = sequence.warnings();
+  report["plausibility"] = plausibility_report;
   if (args.realtime) report["realtime_lag_ms"] = system::summarizeMilliseconds(lag_ms);
   notice("export", next_frame);
   holdIfAsked("export");
@@ -495,7 +515,8 @@ void registerRunCommand(CLI::App& app) {
   cmd->add_flag("--deterministic", args->deterministic,
                 "Every stage waits for the one before it: identical results on every run");
   cmd->add_option("--set", args->overrides, "Override a config key, e.g. --set tracking.max_depth=3.5 (repeatable)");
-  cmd->add_option("--max-frames", args->max_frames, "Process only the first N frames (0 = all)");
+  cmd->add_option("--max-frames", args->max_frames, "Process only the first N frames (0 = all)")
+      ->check(CLI::Range(static_cast<size_t>(0), static_cast<size_t>(1) << 40));
   cmd->add_option("--skip-frames", args->skip_frames,
                   "FIRST-LAST: withhold frames FIRST..LAST (0-based indices into the paired frame list, both "
                   "included) from the system, a sudden jump for testing relocalisation; recorded in report.json "
@@ -523,6 +544,9 @@ void registerRunCommand(CLI::App& app) {
   cmd->add_flag("--overwrite", args->overwrite,
                 "Reuse an --out folder that holds an earlier run's outputs: removes the files a run writes "
                 "(trajectories, report.json, dense map) first, never other files");
+  cmd->add_flag("--force", args->force,
+                "Continue when the input looks wrong (camera.depth_factor against the ground truth or the depth "
+                "range): the error becomes a loud warning and report.json says plausibility.forced");
   cmd->callback([args] {
     const int code = runSequence(*args);
     if (code != exit_code::kOk) throw ExitStatus{code};

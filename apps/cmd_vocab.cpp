@@ -163,7 +163,11 @@ void runCheck(const CheckArgs& args) {
   if (args.every < 1) throw ConfigError("--every must be >= 1");
   const place::Vocabulary vocabulary = place::Vocabulary::load(args.vocab);
   const io::TumSequence sequence = io::TumSequence::open(args.sequence);
-  if (!sequence.groundTruth()) throw InputError(args.sequence + " has no groundtruth.txt; the check needs it");
+  if (!sequence.groundTruth()) {
+    if (!sequence.groundTruthProblem().empty())
+      throw InputError(sequence.groundTruthProblem() + " (vocab check needs the ground truth)");
+    throw InputError(args.sequence + " has no groundtruth.txt; the check needs it");
+  }
 
   // Keyframes: every n-th frame that has a ground-truth pose within 0.02 s.
   Trajectory stamps;
@@ -242,17 +246,20 @@ void registerVocabCommand(CLI::App& app) {
                   "relative paths are relative to the list's folder")
       ->required();
   cmd->add_option("--out", train->out, "Vocabulary file to write")->required();
-  cmd->add_option("--branching", train->branching, "Children per tree node (k)")->capture_default_str();
-  cmd->add_option("--depth", train->depth, "Tree levels (L); up to k^L words")->capture_default_str();
-  cmd->add_option("--iterations", train->iterations, "k-means iterations per node")->capture_default_str();
+  cmd->add_option("--branching", train->branching, "Children per tree node (k)")->check(CLI::Range(2, 64))->capture_default_str();
+  cmd->add_option("--depth", train->depth, "Tree levels (L); up to k^L words")->check(CLI::Range(1, 8))->capture_default_str();
+  cmd->add_option("--iterations", train->iterations, "k-means iterations per node")->check(CLI::Range(1, 1000))->capture_default_str();
   cmd->add_option("--seed", train->seed, "Seed of the k-means++ initialisation")->capture_default_str();
-  cmd->add_option("--every", train->every, "Use every n-th image of each list")->capture_default_str();
+  cmd->add_option("--every", train->every, "Use every n-th image of each list")->check(CLI::Range(1, 1000000))->capture_default_str();
   cmd->add_option("--max-images", train->max_images, "At most this many images, evenly spread (0 = all)")
+      ->check(CLI::Range(0, 100000000))
       ->capture_default_str();
   cmd->add_option("--features-per-image", train->features_per_image, "ORB features extracted per image")
+      ->check(CLI::Range(50, 20000))
       ->capture_default_str();
   cmd->add_option("--max-descriptors", train->max_descriptors,
                   "k-means runs on at most this many descriptors, evenly spread (0 = all)")
+      ->check(CLI::Range(0, 2000000000))
       ->capture_default_str();
   cmd->callback([train] { runTrain(*train); });
 
@@ -263,9 +270,9 @@ void registerVocabCommand(CLI::App& app) {
                "candidate is near it in ground truth");
   chk->add_option("sequence", check->sequence, "Sequence folder (rgb.txt, depth.txt, groundtruth.txt)")->required();
   chk->add_option("--vocab", check->vocab, "Vocabulary file")->required();
-  chk->add_option("--every", check->every, "Keyframe every n-th frame")->capture_default_str();
-  chk->add_option("--max-translation", check->max_translation, "Success radius (m)")->capture_default_str();
-  chk->add_option("--max-rotation", check->max_rotation_deg, "Success angle (deg)")->capture_default_str();
+  chk->add_option("--every", check->every, "Keyframe every n-th frame")->check(CLI::Range(1, 1000000))->capture_default_str();
+  chk->add_option("--max-translation", check->max_translation, "Success radius (m)")->check(finiteRange(1e-4, 1000.0))->capture_default_str();
+  chk->add_option("--max-rotation", check->max_rotation_deg, "Success angle (deg)")->check(finiteRange(1e-3, 180.0))->capture_default_str();
   chk->add_flag("--verbose", check->verbose, "One line per query");
   chk->callback([check] { runCheck(*check); });
 }

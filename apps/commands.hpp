@@ -2,8 +2,11 @@
 // to the CLI11 app; main.cpp lists them explicitly.
 #pragma once
 
+#include <cmath>
 #include <exception>
 #include <filesystem>
+#include <sstream>
+#include <string>
 
 #include <CLI/CLI.hpp>
 
@@ -24,6 +27,36 @@ void registerMapCheckCommand(CLI::App& app);  // cmd_mapcheck.cpp
 struct ExitStatus {
   int code = exit_code::kOk;
 };
+
+// A numeric option's check: a finite number with lo <= value <= hi (CLI::Range lets NaN through,
+// and "inf" parses as a number). CLI11 prefixes the message with the option's name, e.g.
+// "--tolerance: nan is not a finite number ...", and the command line is refused (exit 2).
+inline CLI::Validator finiteRange(double lo, double hi) {
+  std::ostringstream description;
+  description << "FINITE in [" << lo << " - " << hi << "]";
+  return CLI::Validator(
+      [lo, hi](std::string& text) -> std::string {
+        double value = 0;
+        std::size_t used = 0;
+        try {
+          value = std::stod(text, &used);
+        } catch (const std::exception&) {
+          return "'" + text + "' is not a number";
+        }
+        if (used != text.size()) return "'" + text + "' is not a number";
+        std::ostringstream msg;
+        if (!std::isfinite(value)) {
+          msg << text << " is not a finite number: expected " << lo << " <= value <= " << hi;
+          return msg.str();
+        }
+        if (value < lo || value > hi) {
+          msg << text << " is out of range: expected " << lo << " <= value <= " << hi;
+          return msg.str();
+        }
+        return {};
+      },
+      description.str());
+}
 
 // The exit status of an error (the same in every sub-command).
 inline int exitCodeFor(const std::exception& e) {

@@ -2,10 +2,41 @@
 // statuses (the same for every sub-command) are in core/exit_codes.hpp and the README.
 #include <exception>
 #include <iostream>
+#include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
 #include "commands.hpp"
+
+namespace {
+
+// "desslam frobnicate" / "desslam vocab tran": says which sub-commands there are (CLI11 alone
+// would only say that an argument was not expected). Empty when the words name sub-commands.
+std::string unknownSubcommandMessage(CLI::App& app, int argc, char** argv) {
+  CLI::App* level = &app;
+  std::string path = "desslam";
+  for (int i = 1; i < argc; ++i) {
+    const std::string word = argv[i];
+    if (word.empty() || word[0] == '-') return {};  // options: CLI11 checks them
+    const std::vector<CLI::App*> subs = level->get_subcommands([](CLI::App*) { return true; });
+    if (subs.empty()) return {};  // a positional argument of the command
+    CLI::App* found = nullptr;
+    std::string names;
+    for (CLI::App* sub : subs) {
+      names += (names.empty() ? "" : ", ") + sub->get_name();
+      if (sub->get_name() == word) found = sub;
+    }
+    if (found == nullptr)
+      return "unknown sub-command '" + word + "' of " + path + ": type one of " + names + " (e.g. `" + path + " " +
+             subs.front()->get_name() + " --help`; `" + path + " --help` lists them)";
+    level = found;
+    path += " " + word;
+  }
+  return {};
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   namespace exit_code = desslam::exit_code;
@@ -16,6 +47,10 @@ int main(int argc, char** argv) {
   desslam::app::registerEvalCommand(app);
   desslam::app::registerVocabCommand(app);
   desslam::app::registerMapCheckCommand(app);
+  if (const std::string unknown = unknownSubcommandMessage(app, argc, argv); !unknown.empty()) {
+    std::cerr << "error: " << unknown << "\n";
+    return exit_code::kUsage;
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

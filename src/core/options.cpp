@@ -1,11 +1,12 @@
 #include "core/options.hpp"
 
+#include <cmath>
 #include <sstream>
 
 namespace desslam {
 
 void requireInRange(const char* section, const char* key, double value, double lo, double hi) {
-  if (value >= lo && value <= hi) return;
+  if (std::isfinite(value) && value >= lo && value <= hi) return;  // NaN fails both comparisons too
   std::ostringstream msg;
   msg << "config key " << section << "." << key << " = " << value << " is out of range: expected "
       << lo << " <= value <= " << hi;
@@ -18,13 +19,36 @@ void requireThat(bool ok, const char* section, const char* key, const std::strin
 
 void CameraOptions::validate() const {
   const char* s = kSection;
-  requireThat(fx > 0 && fy > 0, s, "fx/fy", "focal lengths must be positive (pixels)");
   requireInRange(s, "width", width, 16, 16384);
   requireInRange(s, "height", height, 16, 16384);
+  // The focal length against the image size: a horizontal field of view outside 20-170 degrees is
+  // no RGB-D camera (typically 55-90); fy must give nearly square pixels.
+  constexpr double kMinFovDeg = 20.0, kMaxFovDeg = 170.0;
+  const double fx_lo = width / (2.0 * std::tan(kMaxFovDeg * M_PI / 360.0));
+  const double fx_hi = width / (2.0 * std::tan(kMinFovDeg * M_PI / 360.0));
+  if (!(std::isfinite(fx) && fx >= fx_lo && fx <= fx_hi)) {
+    std::ostringstream msg;
+    msg << "config key camera.fx = " << fx << " (pixels) is implausible for an image " << width
+        << " pixels wide: ";
+    if (std::isfinite(fx) && fx > 0)
+      msg << "it gives a horizontal field of view of " << 2.0 * std::atan(width / (2.0 * fx)) * 180.0 / M_PI
+          << " degrees; ";
+    msg << "expected " << kMinFovDeg << "-" << kMaxFovDeg << " degrees, i.e. " << fx_lo << " <= fx <= " << fx_hi
+        << " (TUM/Bonn: fx ~ 517-542 for 640 pixels)";
+    throw ConfigError(msg.str());
+  }
+  if (!(std::isfinite(fy) && fy >= 0.5 * fx && fy <= 2.0 * fx)) {
+    std::ostringstream msg;
+    msg << "config key camera.fy = " << fy << " is implausible with camera.fx = " << fx
+        << ": expected 0.5 * fx <= fy <= 2 * fx (pixels are nearly square; fy is usually within 1 % of fx)";
+    throw ConfigError(msg.str());
+  }
   requireInRange(s, "cx", cx, 0, width);
   requireInRange(s, "cy", cy, 0, height);
-  requireThat(depth_factor > 0, s, "depth_factor",
+  for (double k : distortion) requireInRange(s, "distortion", k, -1000.0, 1000.0);
+  requireThat(std::isfinite(depth_factor) && depth_factor > 0, s, "depth_factor",
               "must be positive: raw depth units per metre (5000 for TUM and Bonn, 1000 for mm)");
+  requireInRange(s, "depth_factor", depth_factor, 1.0, 1e6);
   requireInRange(s, "fps", fps, 0.1, 1000);
 }
 
@@ -167,6 +191,20 @@ void AtlasOptions::validate() const {
   requireInRange(s, "merge_min_consistent_keyframes", merge_min_consistent_keyframes, 1, 100);
 }
 
+void PlausibilityOptions::validate() const {
+  const char* s = kSection;
+  requireInRange(s, "window_s", window_s, 0.1, 60.0);
+  requireInRange(s, "max_window_s", max_window_s, window_s, 600.0);
+  requireInRange(s, "min_baseline_m", min_baseline_m, 0.001, 10.0);
+  requireInRange(s, "max_pairs", max_pairs, 1, 1000);
+  requireInRange(s, "min_pairs", min_pairs, 1, max_pairs);
+  requireInRange(s, "max_spread", max_spread, 0.0, 1.0);
+  requireInRange(s, "max_scale_error", max_scale_error, 1.01, 100.0);
+  requireInRange(s, "warn_scale_error", warn_scale_error, 1.0, max_scale_error);
+  requireInRange(s, "min_median_depth_m", min_median_depth_m, 0.0, 1000.0);
+  requireInRange(s, "max_median_depth_m", max_median_depth_m, min_median_depth_m, 1000.0);
+}
+
 void SystemOptions::validate() const {
   camera.validate();
   orb.validate();
@@ -178,6 +216,7 @@ void SystemOptions::validate() const {
   relocalisation.validate();
   loop.validate();
   atlas.validate();
+  plausibility.validate();
 }
 
 }  // namespace desslam

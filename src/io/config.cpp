@@ -57,6 +57,44 @@ std::string shown(const YAML::Node& node) {
   return "nothing";
 }
 
+std::string lineOf(const YAML::Mark& mark) { return mark.is_null() ? "?" : std::to_string(mark.line + 1); }
+
+// A map key as a name; keys that are lists, maps or nothing are an error (options have plain names).
+std::string keyName(const YAML::Node& key, const Origin& origin, const std::string& where) {
+  if (!key.IsScalar())
+    throw ConfigError(origin.at(key) + ": a key in " + where + " is " + shown(key) +
+                      ", expected a plain name ('key: value')");
+  return key.Scalar();
+}
+
+// yaml-cpp keeps duplicate keys in the node but lookups see only one of them: a config that sets
+// a key twice would silently use one value. Every map in the document is checked, and the error
+// names both lines.
+void rejectDuplicateKeys(const YAML::Node& node, const std::string& path, const Origin& origin, int depth = 0) {
+  if (depth > 64) throw ConfigError(origin.at(node) + ": the config is nested too deeply (more than 64 levels)");
+  if (node.IsMap()) {
+    std::vector<std::pair<std::string, YAML::Mark>> seen;
+    for (const auto& item : node) {
+      const std::string key = keyName(item.first, origin, path.empty() ? "the top level" : path);
+      const std::string full = path.empty() ? key : path + "." + key;
+      const auto earlier = std::find_if(seen.begin(), seen.end(), [&](const auto& s) { return s.first == key; });
+      if (earlier != seen.end()) {
+        const bool section = path.empty();
+        throw ConfigError(origin.source + ":" + lineOf(item.first.Mark()) + ": duplicate config " +
+                          (section ? "section '" + full + "'" : "key " + full) + ": already at line " +
+                          lineOf(earlier->second) + " (line " + lineOf(earlier->second) + " and line " +
+                          lineOf(item.first.Mark()) + "); YAML would keep only one of them: " +
+                          (section ? "merge the two sections" : "remove one"));
+      }
+      seen.emplace_back(key, item.first.Mark());
+      rejectDuplicateKeys(item.second, full, origin, depth + 1);
+    }
+  } else if (node.IsSequence()) {
+    for (std::size_t i = 0; i < node.size(); ++i)
+      rejectDuplicateKeys(node[i], path + "[" + std::to_string(i) + "]", origin, depth + 1);
+  }
+}
+
 [[noreturn]] void wrongType(const Origin& origin, const YAML::Node& node, const std::string& key,
                             const std::string& expected) {
   throw ConfigError(origin.at(node) + ": config key " + key + ": expected " + expected + ", got " + shown(node));
@@ -144,7 +182,7 @@ template <class Section> void readSection(const YAML::Node& map, Section& sectio
                       shown(map));
   const std::vector<std::string> known = keysOf(section);
   for (const auto& item : map) {
-    const std::string key = item.first.as<std::string>();
+    const std::string key = keyName(item.first, origin, name);
     if (std::find(known.begin(), known.end(), key) == known.end())
       throw ConfigError(origin.at(item.first) + ": unknown config key " + name + "." + key + ": did you mean " + name +
                         "." + closest(key, known) + "? (keys of " + name + ": " + joined(known) + ")");
@@ -163,7 +201,7 @@ std::vector<std::string> sectionNames(SystemOptions& options) {
 void readSystem(const YAML::Node& root, SystemOptions& options, const Origin& origin) {
   const std::vector<std::string> known = sectionNames(options);
   for (const auto& item : root) {
-    const std::string name = item.first.as<std::string>();
+    const std::string name = keyName(item.first, origin, "the top level");
     if (std::find(known.begin(), known.end(), name) == known.end())
       throw ConfigError(origin.at(item.first) + ": unknown config section '" + name + "': did you mean '" +
                         closest(name, known) + "'? (sections: " + joined(known) + ")");
@@ -180,9 +218,17 @@ SystemOptions loadConfig(const std::filesystem::path& yaml) {
   const std::string file = yaml.string();
   if (!std::filesystem::is_regular_file(yaml))
     throw ConfigError("config file '" + file + "' does not exist: pass a YAML file such as config/tum_fr1.yaml");
+  std::ifstream in(yaml, std::ios::binary);
+  if (!in) throw ConfigError("cannot read config file '" + file + "': check permissions");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return loadConfigFromString(text.str(), file);
+}
+
+SystemOptions loadConfigFromString(const std::string& text, const std::string& file) {
   YAML::Node root;
   try {
-    root = YAML::LoadFile(file);
+    root = YAML::Load(text);
   } catch (const YAML::ParserException& e) {
     throw ConfigError(file + ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1) +
                       ": YAML syntax error: " + e.msg);
@@ -190,6 +236,7 @@ SystemOptions loadConfig(const std::filesystem::path& yaml) {
     throw ConfigError("cannot read config file '" + file + "': " + e.what());
   }
   const Origin origin{file};
+  rejectDuplicateKeys(root, "", origin);
   if (!root.IsMap() || !root["camera"].IsDefined())
     throw ConfigError(file + ": missing the required 'camera:' section (fx, fy, cx, cy, width, height, distortion, "
                              "depth_factor, fps): start from a preset in config/");

@@ -16,7 +16,10 @@ namespace desslam::io {
 // Loads and validates a config. Throws ConfigError naming the file and "section.key" for: missing
 // file, YAML syntax error (with line), unknown section or key (with the closest known one),
 // wrong type ("expected a number"), missing camera section/intrinsics, failed validation.
+// A key or section given twice is an error naming both lines (YAML itself would keep one silently).
 SystemOptions loadConfig(const std::filesystem::path& yaml);
+// The same for a document in memory; `file` names it in messages.
+SystemOptions loadConfigFromString(const std::string& text, const std::string& file);
 
 // Applies one "section.key=value" assignment (the command line's --set), e.g.
 // "dynamic.mode=geometric", "camera.distortion=[0,0,0,0,0]". The value is read as YAML.

@@ -1,6 +1,8 @@
 #include "io/trajectory_io.hpp"
 
 #include <algorithm>
+#include <cerrno>
+#include <cstdlib>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -13,12 +15,19 @@
 
 namespace desslam::io {
 
-Trajectory readTumTrajectory(const std::filesystem::path& path) {
+Trajectory readTumTrajectory(const std::filesystem::path& path, std::vector<std::string>* warnings) {
   std::ifstream in(path);
   if (!in)
     throw InputError("cannot open trajectory file " + path.string() +
                      ": check the path (TUM format: timestamp tx ty tz qx qy qz qw)");
+  return parseTumTrajectory(in, path.string(), warnings);
+}
+
+Trajectory parseTumTrajectory(std::istream& in, const std::string& name, std::vector<std::string>* warnings) {
+  static constexpr const char* kColumns[] = {"timestamp", "tx", "ty", "tz", "qx", "qy", "qz", "qw"};
+  constexpr double kMaxPosition = 1e6;  // metres; anything beyond is a broken file, and squares overflow
   Trajectory trajectory;
+  std::vector<int> lines;  // line of each pose, for the tie warnings
   std::string line;
   int line_number = 0;
   while (std::getline(in, line)) {
@@ -27,15 +36,51 @@ Trajectory readTumTrajectory(const std::filesystem::path& path) {
     if (first == std::string::npos || line[first] == '#') continue;
     for (char& c : line)
       if (c == ',') c = ' ';  // tolerate comma-separated files
+    const std::string where = name + ":" + std::to_string(line_number);
     std::istringstream fields(line);
-    double t, tx, ty, tz, qx, qy, qz, qw;
-    if (!(fields >> t >> tx >> ty >> tz >> qx >> qy >> qz >> qw))
-      throw InputError(path.string() + ":" + std::to_string(line_number) +
-                       ": expected 8 numbers 'timestamp tx ty tz qx qy qz qw'");
+    double v[8];
+    std::string tokens[8];
+    for (int k = 0; k < 8; ++k) {
+      std::string& token = tokens[k];
+      if (!(fields >> token))
+        throw InputError(where + ": expected 8 numbers 'timestamp tx ty tz qx qy qz qw', got " + std::to_string(k));
+      // strtod reads nan and inf too, so that they are named as such rather than "not a number".
+      char* end = nullptr;
+      errno = 0;
+      v[k] = std::strtod(token.c_str(), &end);
+      if (end == token.c_str() || *end != '\0')
+        throw InputError(where + ": " + kColumns[k] + " '" + token +
+                         "' is not a number (expected 'timestamp tx ty tz qx qy qz qw')");
+      if (!std::isfinite(v[k]) || errno == ERANGE)
+        throw InputError(where + ": " + kColumns[k] + " is " + token + ", not a finite number: the pose is unusable");
+    }
+    for (int k = 1; k <= 3; ++k)
+      if (std::abs(v[k]) > kMaxPosition)
+        throw InputError(where + ": " + kColumns[k] + " = " + tokens[k] +
+                         " m is beyond 1e6 m: not a camera position (broken file?)");
+    const double t = v[0], tx = v[1], ty = v[2], tz = v[3], qx = v[4], qy = v[5], qz = v[6], qw = v[7];
     const double qnorm = std::sqrt(qx * qx + qy * qy + qz * qz + qw * qw);
     if (!(qnorm > 1e-6) || !std::isfinite(qnorm))
-      throw InputError(path.string() + ":" + std::to_string(line_number) + ": quaternion has zero or non-finite norm");
-    trajectory.push_back({t, SE3(Quat(qw, qx, qy, qz), Vec3(tx, ty, tz))});
+      throw InputError(where + ": quaternion has zero or non-finite norm");
+    trajectory.push_back({t, SE3(Quat(qw / qnorm, qx / qnorm, qy / qnorm, qz / qnorm), Vec3(tx, ty, tz))});
+    lines.push_back(line_number);
+  }
+  if (warnings != nullptr) {
+    std::vector<std::size_t> order(trajectory.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return trajectory[a].timestamp < trajectory[b].timestamp; });
+    std::size_t ties = 0;
+    for (std::size_t k = 1; k < order.size(); ++k) {
+      if (trajectory[order[k]].timestamp != trajectory[order[k - 1]].timestamp) continue;
+      if (++ties > 10) continue;
+      char stamp[64];
+      std::snprintf(stamp, sizeof(stamp), "%.6f", trajectory[order[k]].timestamp);
+      warnings->push_back(name + ": lines " + std::to_string(lines[order[k - 1]]) + " and " +
+                          std::to_string(lines[order[k]]) + " have the same timestamp " + stamp +
+                          " (a tie: which pose is used for that time is arbitrary)");
+    }
+    if (ties > 10) warnings->push_back(name + ": " + std::to_string(ties - 10) + " more timestamp ties");
   }
   return trajectory;
 }

@@ -3,13 +3,21 @@
 #pragma once
 
 #include <filesystem>
+#include <istream>
+#include <string>
+#include <vector>
 
 #include "core/trajectory.hpp"
 
 namespace desslam::io {
 
-// Throws InputError naming the file (and line) when it is missing or malformed.
-Trajectory readTumTrajectory(const std::filesystem::path& path);
+// Throws InputError naming the file (and line) when it is missing or malformed: fewer than 8
+// numbers, a non-finite value (nan, inf) or a position beyond 1e6 m, a zero quaternion. Poses
+// with the same timestamp as an earlier one (ties) are kept and reported in `warnings` (when
+// given), naming the file and both lines.
+Trajectory readTumTrajectory(const std::filesystem::path& path, std::vector<std::string>* warnings = nullptr);
+// The same for text in memory; `name` names it in messages.
+Trajectory parseTumTrajectory(std::istream& in, const std::string& name, std::vector<std::string>* warnings = nullptr);
 // Six decimals for timestamps (as the datasets write them), nine for pose values. Written
 // atomically (core/atomic_file.hpp); throws OutputError naming the file and the reason.
 void writeTumTrajectory(const std::filesystem::path& path, const Trajectory& trajectory);

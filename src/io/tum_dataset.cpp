@@ -25,28 +25,23 @@ struct ListEntry {
 std::string quoted(const fs::path& p) { return "'" + p.string() + "'"; }
 
 // Reads a "timestamp filename" list; paths are resolved against the sequence folder.
-std::vector<ListEntry> readImageList(const fs::path& dir, const std::string& list_name) {
+std::vector<ListEntry> readImageList(const fs::path& dir, const std::string& list_name,
+                                     std::vector<std::string>& warnings) {
   const fs::path list_path = dir / list_name;
   if (!fs::is_regular_file(list_path))
     throw InputError("missing " + list_name + " in sequence folder " + quoted(dir) +
                      ": a TUM-layout sequence needs rgb.txt and depth.txt ('timestamp filename' per line)");
   std::ifstream in(list_path);
   if (!in) throw InputError("cannot read " + quoted(list_path) + ": check permissions");
-  std::vector<ListEntry> entries;
-  std::string line;
-  int line_number = 0;
-  while (std::getline(in, line)) {
-    ++line_number;
-    const auto first = line.find_first_not_of(" \t\r");
-    if (first == std::string::npos || line[first] == '#') continue;
-    std::istringstream fields(line);
-    double timestamp = 0;
-    std::string file;
-    if (!(fields >> timestamp >> file) || !std::isfinite(timestamp))
-      throw InputError(list_path.string() + ":" + std::to_string(line_number) +
-                       ": expected 'timestamp filename', got '" + line + "'");
-    entries.push_back({timestamp, dir / file});
+  std::vector<std::string> list_warnings;
+  const std::vector<TimestampListEntry> parsed = parseTimestampList(in, list_path.string(), &list_warnings);
+  for (std::string& w : list_warnings) {
+    spdlog::warn("{}", w);
+    warnings.push_back(std::move(w));
   }
+  std::vector<ListEntry> entries;
+  entries.reserve(parsed.size());
+  for (const TimestampListEntry& e : parsed) entries.push_back({e.timestamp, dir / e.file});
   if (entries.empty())
     throw InputError(quoted(list_path) + " lists no images: expected 'timestamp filename' lines");
   return entries;
@@ -106,6 +101,64 @@ void requireCameraSize(const cv::Mat& image, const fs::path& file, const CameraO
 
 }  // namespace
 
+std::vector<TimestampListEntry> parseTimestampList(std::istream& in, const std::string& name,
+                                                   std::vector<std::string>* warnings) {
+  std::vector<TimestampListEntry> entries;
+  std::string line;
+  int line_number = 0;
+  while (std::getline(in, line)) {
+    ++line_number;
+    const auto first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos || line[first] == '#') continue;
+    std::istringstream fields(line);
+    double timestamp = 0;
+    std::string file;
+    if (!(fields >> timestamp >> file) || !std::isfinite(timestamp))
+      throw InputError(name + ":" + std::to_string(line_number) + ": expected 'timestamp filename', got '" +
+                       (line.size() > 200 ? line.substr(0, 200) + "..." : line) + "'");
+    entries.push_back({timestamp, file, line_number});
+  }
+  if (warnings != nullptr) {
+    // Ties: equal timestamps, found in time order; each group is one warning naming its lines.
+    std::vector<std::size_t> order(entries.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return entries[a].timestamp < entries[b].timestamp; });
+    constexpr std::size_t kMaxReported = 10;
+    std::size_t groups = 0;
+    for (std::size_t k = 0; k < order.size();) {
+      std::size_t end = k + 1;
+      while (end < order.size() && entries[order[end]].timestamp == entries[order[k]].timestamp) ++end;
+      if (end - k > 1 && ++groups <= kMaxReported) {
+        std::ostringstream msg;
+        msg.precision(6);
+        msg << std::fixed << name << ": lines ";
+        for (std::size_t j = k; j < end; ++j) msg << (j == k ? "" : j + 1 == end ? " and " : ", ") << entries[order[j]].line;
+        msg << " have the same timestamp " << entries[order[k]].timestamp
+            << " (a tie: only one of them can be paired with the other stream; check the recording)";
+        warnings->push_back(msg.str());
+      }
+      k = end;
+    }
+    if (groups > kMaxReported)
+      warnings->push_back(name + ": " + std::to_string(groups - kMaxReported) + " more timestamp ties not listed");
+  }
+  return entries;
+}
+
+cv::Mat depthToMetres(const cv::Mat& raw, const fs::path& file, const CameraOptions& camera) {
+  if (!(camera.depth_factor > 0) || !std::isfinite(camera.depth_factor))
+    throw ConfigError("config key camera.depth_factor must be positive (5000 for TUM/Bonn, 1000 for mm)");
+  if (raw.empty()) throw InputError("cannot read depth image (unreadable or corrupt PNG): " + file.string());
+  if (raw.type() != CV_16UC1)
+    throw InputError("depth must be 16-bit PNG (CV_16U), got " + describeType(raw) + ": " + file.string() +
+                     " (raw depth units are converted to metres with camera.depth_factor)");
+  requireCameraSize(raw, file, camera);
+  cv::Mat depth;
+  raw.convertTo(depth, CV_32F, 1.0 / camera.depth_factor);  // 0 stays 0 = no reading
+  return depth;
+}
+
 TumSequence TumSequence::open(const fs::path& dir, double max_dt) {
   if (!(max_dt > 0)) throw InputError("TumSequence::open: max_dt must be positive, got " + std::to_string(max_dt));
   if (!fs::is_directory(dir))
@@ -114,8 +167,8 @@ TumSequence TumSequence::open(const fs::path& dir, double max_dt) {
 
   TumSequence seq;
   seq.directory_ = dir;
-  const auto rgb = dropMissing(readImageList(dir, "rgb.txt"), dir / "rgb.txt", seq.warnings_);
-  auto depth = dropMissing(readImageList(dir, "depth.txt"), dir / "depth.txt", seq.warnings_);
+  const auto rgb = dropMissing(readImageList(dir, "rgb.txt", seq.warnings_), dir / "rgb.txt", seq.warnings_);
+  auto depth = dropMissing(readImageList(dir, "depth.txt", seq.warnings_), dir / "depth.txt", seq.warnings_);
 
   // Association as TUM's associate.py: every candidate pair within max_dt, taken greedily in order
   // of increasing |dt| so each RGB and each depth frame is used at most once. Depth is sorted so
@@ -163,7 +216,30 @@ TumSequence TumSequence::open(const fs::path& dir, double max_dt) {
     spdlog::info("{}: {} RGB frames have no depth frame within {} s and are not used", dir.string(), unpaired_rgb,
                  max_dt);
 
-  if (const fs::path gt = dir / "groundtruth.txt"; fs::is_regular_file(gt)) seq.ground_truth_ = readTumTrajectory(gt);
+  // Ground truth is optional for a run (ATE/RPE, the depth-scale check): a problem with it is a
+  // warning here; commands that need it throw groundTruthProblem().
+  if (const fs::path gt = dir / "groundtruth.txt"; fs::is_regular_file(gt)) {
+    std::vector<std::string> gt_warnings;
+    try {
+      Trajectory trajectory = readTumTrajectory(gt, &gt_warnings);
+      if (trajectory.empty())
+        seq.ground_truth_problem_ = gt.string() + " holds no poses";
+      else
+        seq.ground_truth_ = std::move(trajectory);
+    } catch (const InputError& e) {
+      seq.ground_truth_problem_ = e.what();
+    }
+    for (std::string& w : gt_warnings) {
+      spdlog::warn("{}", w);
+      seq.warnings_.push_back(std::move(w));
+    }
+    if (!seq.ground_truth_problem_.empty()) {
+      std::string msg = "ignoring the ground truth: " + seq.ground_truth_problem_ +
+                        " (the run goes on without ATE/RPE and without the depth-scale check against it)";
+      spdlog::warn("{}", msg);
+      seq.warnings_.push_back(std::move(msg));
+    }
+  }
   return seq;
 }
 
@@ -184,12 +260,7 @@ RgbdImage TumSequence::load(std::size_t i, const CameraOptions& camera) const {
   requireCameraSize(bgr, rec.rgb_path, camera);
   out.bgr = std::move(bgr);
 
-  const cv::Mat raw = readImage(rec.depth_path, "depth");
-  if (raw.type() != CV_16UC1)
-    throw InputError("depth must be 16-bit PNG (CV_16U), got " + describeType(raw) + ": " + rec.depth_path.string() +
-                     " (raw depth units are converted to metres with camera.depth_factor)");
-  requireCameraSize(raw, rec.depth_path, camera);
-  raw.convertTo(out.depth, CV_32F, 1.0 / camera.depth_factor);  // 0 stays 0 = no reading
+  out.depth = depthToMetres(readImage(rec.depth_path, "depth"), rec.depth_path, camera);
   return out;
 }
 

@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <filesystem>
+#include <istream>
 #include <optional>
 #include <string>
 #include <vector>
@@ -51,8 +52,11 @@ class TumSequence {
   // Depth is converted to metres with camera.depth_factor.
   RgbdImage load(std::size_t i, const CameraOptions& camera) const;
 
-  // Ground truth (world-from-marker/camera poses) when groundtruth.txt exists.
+  // Ground truth (world-from-marker/camera poses) when groundtruth.txt exists and could be read.
+  // A malformed groundtruth.txt does not stop open(): a run does not need it (it is left out,
+  // with a warning, and groundTruthProblem() says why); commands that need it throw that.
   const std::optional<Trajectory>& groundTruth() const { return ground_truth_; }
+  const std::string& groundTruthProblem() const { return ground_truth_problem_; }
   // What was skipped while opening, for the run report.
   std::vector<std::string> warnings() const { return warnings_; }
 
@@ -60,8 +64,27 @@ class TumSequence {
   std::filesystem::path directory_;
   std::vector<RgbdFrameRecord> records_;
   std::optional<Trajectory> ground_truth_;
+  std::string ground_truth_problem_;
   std::vector<std::string> warnings_;
 };
+
+// One line of a "timestamp filename" list (rgb.txt, depth.txt).
+struct TimestampListEntry {
+  Timestamp timestamp = 0;
+  std::string file;  // as listed (relative to the list's folder)
+  int line = 0;      // 1-based line in the list
+};
+
+// Parses a "timestamp filename" list ('#' comments, blank lines); `name` names it in messages.
+// Throws InputError "name:line: ..." for a malformed line or a non-finite timestamp. Ties (the
+// same timestamp on several lines) are kept; each is reported in `warnings` (when given) naming
+// the file and the lines.
+std::vector<TimestampListEntry> parseTimestampList(std::istream& in, const std::string& name,
+                                                   std::vector<std::string>* warnings = nullptr);
+
+// A raw depth image (as read from a PNG) in metres (raw / camera.depth_factor, 0 = no reading).
+// Throws InputError naming `file` unless it is 16-bit single channel of the camera's size.
+cv::Mat depthToMetres(const cv::Mat& raw, const std::filesystem::path& file, const CameraOptions& camera);
 
 // Wrong depth scale guard, for the first frames: throws InputError naming `file` when the median
 // valid depth is implausible for an indoor RGB-D camera (< 0.1 m or > 20 m), suggesting to check

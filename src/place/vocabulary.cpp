@@ -432,6 +432,10 @@ Vocabulary Vocabulary::load(const std::filesystem::path& path) {
     throw InputError("cannot open vocabulary file " + name +
                      ": check the path (the default is vocab/desslam_orb_k10l5.bin in the project)");
   const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  return fromBytes(bytes, name);
+}
+
+Vocabulary Vocabulary::fromBytes(const std::vector<uint8_t>& bytes, const std::string& name) {
   if (bytes.size() < sizeof(kMagic) || std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) != 0)
     throw InputError(name + " is not a DeS-SLAM vocabulary (bad magic number); train one with `desslam vocab train`");
   if (bytes.size() < kHeaderBytes)

@@ -55,6 +55,8 @@ class Vocabulary {
   // read, or has a bad magic number, unknown version, is truncated or fails its checksum.
   void save(const std::filesystem::path& path) const;
   static Vocabulary load(const std::filesystem::path& path);
+  // The same from a file's bytes in memory; `name` names it in messages.
+  static Vocabulary fromBytes(const std::vector<uint8_t>& bytes, const std::string& name);
 
   // bow: word -> tf-idf weight, L1-normalised (words of zero weight are left out; empty when
   // `descriptors` is empty). features: for each descriptor row i, the node on its path at

@@ -2,7 +2,9 @@
 #include "core/options.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <functional>
+#include <limits>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -127,6 +129,59 @@ TEST(Options, FieldListsHaveUniqueKeysAndSections) {
   std::vector<std::string> sorted = sections;
   std::sort(sorted.begin(), sorted.end());
   EXPECT_EQ(std::adjacent_find(sorted.begin(), sorted.end()), sorted.end()) << "duplicate section";
+}
+
+// Every numeric option of every section is range-checked: a huge, a hugely negative and (for
+// doubles) a NaN value are each rejected by validate() with a message naming "section.key".
+struct BadValueProbe {
+  std::string section;
+  std::vector<std::string> problems;
+  template <class T> void operator()(const char* key, T& member) {
+    if constexpr (std::is_same_v<T, double> || std::is_same_v<T, int>) {
+      std::vector<T> bad_values;
+      if constexpr (std::is_same_v<T, double>)
+        bad_values = {1e300, -1e300, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()};
+      else
+        bad_values = {std::numeric_limits<int>::max(), std::numeric_limits<int>::min()};
+      const T saved = member;
+      for (T bad : bad_values) {
+        member = bad;
+        std::string message;
+        try {
+          validate();
+        } catch (const ConfigError& e) {
+          message = e.what();
+        }
+        const std::string name = section + "." + key;
+        if (message.find(name) == std::string::npos)
+          problems.push_back(name + " = " + std::to_string(bad) + ": " + (message.empty() ? "accepted" : message));
+      }
+      member = saved;
+    }
+  }
+  std::function<void()> validate;
+};
+
+TEST(Options, EveryNumericOptionIsRangeChecked) {
+  SystemOptions o = validDefaults();
+  std::vector<std::string> problems;
+  o.sections([&](auto& section) {
+    BadValueProbe probe{std::decay_t<decltype(section)>::kSection, {}, [&] { o.validate(); }};
+    section.fields(probe);
+    problems.insert(problems.end(), probe.problems.begin(), probe.problems.end());
+  });
+  for (const std::string& p : problems) ADD_FAILURE() << p;
+  // The distortion coefficients too.
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.camera.distortion[2] = std::nan(""); }, "camera.distortion");
+}
+
+TEST(Options, FocalLengthMustGiveAPlausibleFieldOfView) {
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.camera.fx = o.camera.fy = 1e-9; }, "camera.fx");
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.camera.fx = o.camera.fy = 1e300; }, "camera.fx");
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.camera.fx = o.camera.fy = 20; }, "camera.fx");  // 173 degrees
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.camera.fx = o.camera.fy = 2000; }, "camera.fx");  // 18 degrees
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.camera.fy = 2000; }, "camera.fy");
+  EXPECT_NO_THROW([] { SystemOptions o = validDefaults(); o.camera.fx = o.camera.fy = 200; o.validate(); }());
 }
 
 }  // namespace

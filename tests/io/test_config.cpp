@@ -231,5 +231,55 @@ TEST(Config, JsonHoldsEverySectionAndKeyAndReloadsToTheSameOptions) {
   EXPECT_EQ(optionsToJson(reloaded), j);
 }
 
+// yaml-cpp keeps both entries of a repeated key but a lookup sees one: a silently ignored value.
+TEST(Config, DuplicateKeysAndSectionsNameBothLines) {
+  TempDir dir;
+  // kCamera is lines 1-5.
+  const std::string key = configErrorOf(
+      [&] { loadConfig(dir.write("k.yaml", std::string(kCamera) + "tracking:\n  max_depth: 3.0\n  min_depth: 0.2\n  max_depth: 3.5\n")); });
+  EXPECT_CONTAINS(key, "k.yaml");
+  EXPECT_CONTAINS(key, "duplicate config key tracking.max_depth");
+  EXPECT_CONTAINS(key, "line 7");
+  EXPECT_CONTAINS(key, "line 9");
+
+  const std::string section = configErrorOf(
+      [&] { loadConfig(dir.write("s.yaml", std::string(kCamera) + "orb:\n  num_features: 900\norb:\n  num_levels: 4\n")); });
+  EXPECT_CONTAINS(section, "duplicate config section 'orb'");
+  EXPECT_CONTAINS(section, "line 6");
+  EXPECT_CONTAINS(section, "line 8");
+
+  const std::string camera_key = configErrorOf([&] { loadConfig(dir.write("c.yaml", std::string(kCamera) + "  fx: 520\n")); });
+  EXPECT_CONTAINS(camera_key, "camera.fx");
+  EXPECT_CONTAINS(camera_key, "line 2");
+  EXPECT_CONTAINS(camera_key, "line 6");
+
+  // Flow style too.
+  const std::string flow = configErrorOf(
+      [&] { loadConfig(dir.write("f.yaml", std::string(kCamera) + "dense: {voxel_size: 0.02, voxel_size: 0.03}\n")); });
+  EXPECT_CONTAINS(flow, "dense.voxel_size");
+}
+
+TEST(Config, KeysThatAreNotNamesAreRejected) {
+  TempDir dir;
+  const std::string complex = configErrorOf([&] { loadConfig(dir.write("x.yaml", std::string(kCamera) + "? [a, b]\n: 1\n")); });
+  EXPECT_CONTAINS(complex, "x.yaml");
+  EXPECT_CONTAINS(complex, "plain name");
+}
+
+TEST(Config, ImplausibleFocalLengthIsNamed) {
+  TempDir dir;
+  for (const char* fx : {"1e-9", "1e300", "5", "100000"}) {
+    SCOPED_TRACE(fx);
+    const std::string message = configErrorOf([&] {
+      loadConfig(dir.write("fx.yaml", "camera:\n  fx: " + std::string(fx) + "\n  fy: 500\n  cx: 320\n  cy: 240\n"));
+    });
+    EXPECT_CONTAINS(message, "camera.fx");
+    EXPECT_CONTAINS(message, "field of view");
+  }
+  const std::string nan = configErrorOf(
+      [&] { loadConfig(dir.write("nan.yaml", "camera:\n  fx: .nan\n  fy: 500\n  cx: 320\n  cy: 240\n")); });
+  EXPECT_CONTAINS(nan, "camera.fx");
+}
+
 }  // namespace
 }  // namespace desslam::io

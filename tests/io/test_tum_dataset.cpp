@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -10,6 +12,7 @@
 
 #include "core/error.hpp"
 #include "io/config.hpp"
+#include "io/trajectory_io.hpp"
 #include "support/temp_dir.hpp"
 #include "support/shared_data.hpp"
 
@@ -130,6 +133,48 @@ TEST(TumSequence, MissingListedFilesAreSkippedWithAWarningEach) {
   };
   EXPECT_TRUE(mentions(stamp(2.001) + ".png"));
   EXPECT_TRUE(mentions(stamp(3.0) + ".png"));
+}
+
+TEST(TumSequence, TimestampTiesAreWarningsNamingTheFileAndLines) {
+  TempDir dir;
+  writeSequence(dir, {1.0, 2.0, 3.0}, {1.001, 2.001, 3.001});
+  // rgb.txt: two header lines, then 1.0 (line 3), 2.0 (line 4), 3.0 (line 5); line 6 repeats 2.0.
+  std::ofstream(dir.path() / "rgb.txt", std::ios::app) << stamp(2.0) << " rgb/" << stamp(3.0) << ".png\n";
+  const TumSequence seq = TumSequence::open(dir.path());
+  EXPECT_EQ(seq.size(), 3u);
+  const auto warnings = seq.warnings();
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find("rgb.txt"), std::string::npos) << warnings[0];
+  EXPECT_NE(warnings[0].find("lines 4 and 6"), std::string::npos) << warnings[0];
+  EXPECT_NE(warnings[0].find("same timestamp"), std::string::npos) << warnings[0];
+}
+
+TEST(TumSequence, BadGroundTruthIsAWarningNotAnError) {
+  TempDir dir;
+  writeSequence(dir, {1.0, 2.0}, {1.001, 2.001});
+  dir.write("groundtruth.txt", "1.0 0 0 0 0 0 0 1\n2.0 nan 0 0 0 0 0 1\n");
+  const TumSequence seq = TumSequence::open(dir.path());
+  EXPECT_EQ(seq.size(), 2u);
+  EXPECT_FALSE(seq.groundTruth().has_value());
+  EXPECT_NE(seq.groundTruthProblem().find("groundtruth.txt:2"), std::string::npos) << seq.groundTruthProblem();
+  const auto warnings = seq.warnings();
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find("ignoring the ground truth"), std::string::npos) << warnings[0];
+}
+
+TEST(TrajectoryFile, NonFiniteAndHugeValuesAreErrorsNamingTheLine) {
+  for (const std::string& bad : {"1 nan 0 0 0 0 0 1", "1 0 inf 0 0 0 0 1", "1 0 0 0 0 0 0 -nan", "inf 0 0 0 0 0 0 1",
+                                 "1 1e300 0 0 0 0 0 1", "1 0 0 1e999 0 0 0 1", "1 0 0 x 0 0 0 1"}) {
+    SCOPED_TRACE(bad);
+    std::istringstream in("# header\n0 0 0 0 0 0 0 1\n" + bad + "\n");
+    const std::string message = errorOf<InputError>([&] { parseTumTrajectory(in, "t.txt"); });
+    EXPECT_NE(message.find("t.txt:3"), std::string::npos) << message;
+  }
+  std::istringstream ties("1 0 0 0 0 0 0 1\n1 0 0 1 0 0 0 1\n");
+  std::vector<std::string> warnings;
+  EXPECT_EQ(parseTumTrajectory(ties, "t.txt", &warnings).size(), 2u);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find("lines 1 and 2"), std::string::npos) << warnings[0];
 }
 
 TEST(TumSequence, LoadsImagesAndConvertsDepthToMetres) {

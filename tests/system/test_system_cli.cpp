@@ -370,5 +370,191 @@ TEST_F(DesslamCli, MissingArgumentsPrintUsage) {
   EXPECT_CONTAINS(r.err + r.out, "sequence");
 }
 
+// ---- plausibility of the input (issue 11) ----------------------------------------------------
+
+// 36 frames (1.2 s) of the synthetic sweep: the camera moves ~0.3 m in the first second.
+constexpr int kPlausibilityFrames = 36;
+
+TEST_F(DesslamCli, RightDepthFactorPassesSilently) {
+  writeSequence(kPlausibilityFrames);
+  writeConfig();
+  const CommandResult r = run(sequence(), config(), out(), "--deterministic --quiet --max-frames 36");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err.find("depth_factor"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
+  const auto report = nlohmann::json::parse(test::readText(out() / "report.json"));
+  const auto& scale = report["plausibility"]["scale"];
+  ASSERT_TRUE(scale["judged"].get<bool>()) << report["plausibility"].dump(2);
+  EXPECT_NEAR(scale["ratio"].get<double>(), 1.0, 0.05);
+  EXPECT_TRUE(report["plausibility"]["findings"].empty());
+}
+
+TEST_F(DesslamCli, WrongDepthFactorIsAnErrorNamingTheKeyAndTheLikelyFactor) {
+  writeSequence(kPlausibilityFrames);
+  writeConfig();
+  for (const char* factor : {"1000", "25000"}) {  // x0.2 and x5 of the right 5000
+    SCOPED_TRACE(factor);
+    const CommandResult r = run(sequence(), config(), out(), std::string("--quiet --set camera.depth_factor=") + factor);
+    EXPECT_EQ(r.exit_code, 1) << r.err;  // exit_code::kBadInput
+    expectCleanFailure(r);
+    EXPECT_CONTAINS(r.err, "camera.depth_factor");
+    EXPECT_CONTAINS(r.err, "likely factor is 5000");
+    EXPECT_CONTAINS(r.err, "--force");
+    EXPECT_FALSE(fs::exists(out() / "report.json"));  // refused before the run
+  }
+}
+
+TEST_F(DesslamCli, ForceTurnsTheDepthFactorErrorIntoAWarning) {
+  writeSequence(kPlausibilityFrames);
+  writeConfig();
+  const CommandResult r = run(sequence(), config(), out(), "--quiet --deterministic --force --set camera.depth_factor=25000");
+  EXPECT_NE(r.exit_code, 1) << r.err;
+  EXPECT_FALSE(r.signaled) << r.err;
+  EXPECT_CONTAINS(r.err, "WARNING (--force)");
+  EXPECT_CONTAINS(r.err, "camera.depth_factor");
+  const auto report = nlohmann::json::parse(test::readText(out() / "report.json"));
+  EXPECT_TRUE(report["plausibility"]["forced"].get<bool>());
+  EXPECT_NEAR(report["plausibility"]["scale"]["ratio"].get<double>(), 0.2, 0.02);
+  EXPECT_EQ(report["statistics"]["counts"]["frames"].get<size_t>(), static_cast<size_t>(kPlausibilityFrames));
+}
+
+TEST_F(DesslamCli, WrongDepthFactorOnTheFr1ClipIsAnError) {
+  const fs::path clip = test::clipDir("fr1_xyz_0000_0099");
+  DESSLAM_REQUIRE_SHARED(clip);
+  const fs::path preset = test::sourceDir() / "config" / "tum_fr1.yaml";
+  for (const char* factor : {"1000", "25000"}) {
+    SCOPED_TRACE(factor);
+    const CommandResult r = run(clip, preset, out(), std::string("--quiet --set camera.depth_factor=") + factor);
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_CONTAINS(r.err, "camera.depth_factor");
+    EXPECT_CONTAINS(r.err, "likely factor is 5000");
+  }
+}
+
+TEST_F(DesslamCli, DuplicateConfigKeysAndSectionsNameBothLines) {
+  writeSequence(3);
+  // syntheticConfigYaml() is 16 lines; `extra` starts at line 17.
+  writeConfig("tracking:\n  max_depth: 3.0\n  max_depth: 3.5\n");
+  const CommandResult key = run();
+  EXPECT_EQ(key.exit_code, 1) << key.err;
+  EXPECT_CONTAINS(key.err, "tracking.max_depth");
+  EXPECT_CONTAINS(key.err, "line 18");
+  EXPECT_CONTAINS(key.err, "line 19");
+  EXPECT_CONTAINS(key.err, "synthetic.yaml");
+
+  writeConfig("dense:\n  voxel_size: 0.02\n");  // dense: is already at line 15
+  const CommandResult section = run();
+  EXPECT_EQ(section.exit_code, 1) << section.err;
+  EXPECT_CONTAINS(section.err, "section 'dense'");
+  EXPECT_CONTAINS(section.err, "line 15");
+  EXPECT_CONTAINS(section.err, "line 17");
+}
+
+TEST_F(DesslamCli, ImplausibleNumericValuesOfEverySubCommandAreRejected) {
+  writeSequence(3);
+  writeConfig();
+  const std::string gt = shellQuote((sequence() / "groundtruth.txt").string());
+  struct Case {
+    std::string arguments, named;
+  };
+  const std::string run_base = "run " + shellQuote(sequence().string()) + " --config " + shellQuote(config().string()) +
+                               " --out " + shellQuote(out().string()) + " ";
+  const std::vector<Case> cases = {
+      {run_base + "--set camera.fx=1e-9", "camera.fx"},
+      {run_base + "--set camera.fx=1e300", "camera.fx"},
+      {run_base + "--set camera.depth_factor=.nan", "camera.depth_factor"},
+      {run_base + "--set tracking.max_depth=-5", "tracking.max_depth"},
+      {run_base + "--max-frames -5", "--max-frames"},
+      {run_base + "--emulate-mask-latency 1000", "--emulate-mask-latency"},
+      {"eval " + gt + " " + gt + " --max-dt nan", "--max-dt"},
+      {"eval " + gt + " " + gt + " --max-dt -1", "--max-dt"},
+      {"eval " + gt + " " + gt + " --delta inf", "--delta"},
+      {"mapcheck " + shellQuote(out().string()) + " " + shellQuote(sequence().string()) + " --tolerance nan", "--tolerance"},
+      {"mapcheck " + shellQuote(out().string()) + " " + shellQuote(sequence().string()) + " --window -5", "--window"},
+      {"vocab check " + shellQuote(sequence().string()) + " --vocab x.bin --max-translation inf", "--max-translation"},
+      {"vocab check " + shellQuote(sequence().string()) + " --vocab x.bin --every 0", "--every"},
+      {"vocab train " + gt + " --out v.bin --branching 1", "--branching"},
+      {"vocab train " + gt + " --out v.bin --features-per-image -3", "--features-per-image"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.arguments);
+    const CommandResult r = desslam(c.arguments);
+    EXPECT_TRUE(r.exit_code == 1 || r.exit_code == 2) << "exit " << r.exit_code << "\n" << r.err;
+    EXPECT_FALSE(r.signaled);
+    EXPECT_CONTAINS(r.err, c.named);
+    EXPECT_FALSE(fs::exists(out() / "report.json"));
+  }
+}
+
+TEST_F(DesslamCli, EvalRefusesNonFinitePoses) {
+  writeSequence(3);
+  const fs::path gt = sequence() / "groundtruth.txt";
+  for (const std::string& bad : {"nan", "inf", "1e300"}) {
+    SCOPED_TRACE(bad);
+    std::string text = test::readText(gt);
+    // The second pose line's tx replaced.
+    std::istringstream lines(text);
+    std::string line, rewritten;
+    int pose = 0;
+    while (std::getline(lines, line)) {
+      if (!line.empty() && line[0] != '#' && ++pose == 2) {
+        std::istringstream f(line);
+        std::string t, tx, rest;
+        f >> t >> tx;
+        std::getline(f, rest);
+        line = t + " " + bad + rest;
+      }
+      rewritten += line + "\n";
+    }
+    dir_.write("estimate.txt", rewritten);
+    const CommandResult r = desslam("eval " + shellQuote(gt.string()) + " " + shellQuote((dir_ / "estimate.txt").string()));
+    EXPECT_EQ(r.exit_code, 1) << r.err << r.out;
+    EXPECT_CONTAINS(r.err, "estimate.txt");
+    EXPECT_EQ(r.out.find("nan"), std::string::npos) << r.out;
+    EXPECT_EQ(r.out.find("inf"), std::string::npos) << r.out;
+  }
+}
+
+TEST_F(DesslamCli, UnknownSubCommandListsTheSubCommands) {
+  const CommandResult r = desslam("frobnicate --help");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_CONTAINS(r.err, "unknown sub-command 'frobnicate'");
+  for (const char* name : {"run", "eval", "vocab", "mapcheck"}) EXPECT_CONTAINS(r.err, name);
+  const CommandResult nested = desslam("vocab tran");
+  EXPECT_EQ(nested.exit_code, 2);
+  EXPECT_CONTAINS(nested.err, "unknown sub-command 'tran' of desslam vocab");
+  EXPECT_CONTAINS(nested.err, "train, check");
+}
+
+TEST_F(DesslamCli, TimestampTiesAndBadGroundTruthAreWarnings) {
+  writeSequence(8);
+  writeConfig();
+  const std::vector<std::string> rgb = listed("rgb.txt");
+  // A second line with the first frame's timestamp, and an unreadable ground truth.
+  std::ifstream in(sequence() / "rgb.txt");
+  std::string first_stamp, line;
+  while (std::getline(in, line))
+    if (!line.empty() && line[0] != '#') {
+      first_stamp = line.substr(0, line.find(' '));
+      break;
+    }
+  std::ofstream(sequence() / "rgb.txt", std::ios::app) << first_stamp << " " << rgb[1] << "\n";
+  std::ofstream(sequence() / "groundtruth.txt", std::ios::app) << "1000.5 nan 0 0 0 0 0 1\n";
+  const CommandResult r = run(sequence(), config(), out(), "--deterministic --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  // (spdlog's warnings go to stdout.)
+  EXPECT_CONTAINS(r.err + r.out, "rgb.txt");
+  EXPECT_CONTAINS(r.err + r.out, "same timestamp");
+  EXPECT_CONTAINS(r.err + r.out, "ignoring the ground truth");
+  const auto report = nlohmann::json::parse(test::readText(out() / "report.json"));
+  EXPECT_FALSE(report.contains("ate"));
+  EXPECT_GE(report["input_warnings"].size(), 2u);
+  // vocab check needs the ground truth: there the same problem is an error.
+  const CommandResult check = desslam("vocab check " + shellQuote(sequence().string()) + " --vocab " +
+                                      shellQuote((test::sourceDir() / "vocab" / "desslam_orb_k10l5.bin").string()));
+  EXPECT_EQ(check.exit_code, 1) << check.err;
+  EXPECT_CONTAINS(check.err, "groundtruth.txt");
+}
+
 }  // namespace
 }  // namespace desslam
