@@ -6,6 +6,7 @@
 
 #include "core/error.hpp"
 #include "support/temp_dir.hpp"
+#include "support/expect_contains.hpp"
 #include "support/shared_data.hpp"
 
 namespace desslam::io {
@@ -23,9 +24,6 @@ template <class F> std::string configErrorOf(F&& f) {
   ADD_FAILURE() << "expected a ConfigError";
   return {};
 }
-
-#define EXPECT_CONTAINS(text, part) \
-  EXPECT_NE(std::string(text).find(part), std::string::npos) << "'" << (text) << "' lacks '" << (part) << "'"
 
 const char* kCamera =
     "camera:\n"

@@ -13,6 +13,7 @@
 
 #include "io/trajectory_io.hpp"
 #include "support/shared_data.hpp"
+#include "support/expect_contains.hpp"
 #include "support/temp_dir.hpp"
 #include "system_support.hpp"
 
@@ -22,9 +23,6 @@ namespace {
 namespace fs = std::filesystem;
 using test::CommandResult;
 using test::shellQuote;
-
-#define EXPECT_CONTAINS(text, part) \
-  EXPECT_NE(std::string(text).find(part), std::string::npos) << "stderr lacks '" << (part) << "':\n" << (text)
 
 // A sequence folder and a config file for the synthetic camera in a fresh temp dir.
 class DesslamCli : public ::testing::Test {

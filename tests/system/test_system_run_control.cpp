@@ -17,6 +17,7 @@
 #include "core/atomic_file.hpp"
 #include "core/exit_codes.hpp"
 #include "io/trajectory_io.hpp"
+#include "support/expect_contains.hpp"
 #include "support/temp_dir.hpp"
 #include "system_support.hpp"
 
@@ -26,9 +27,6 @@ namespace {
 namespace fs = std::filesystem;
 using test::CommandResult;
 using test::shellQuote;
-
-#define EXPECT_CONTAINS(text, part) \
-  EXPECT_NE(std::string(text).find(part), std::string::npos) << "output lacks '" << (part) << "':\n" << (text)
 
 class RunControl : public ::testing::Test {
  protected:
