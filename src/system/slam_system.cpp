@@ -386,6 +386,28 @@ AtlasTrajectory SlamSystem::cameraTrajectoryAll() const {
   return trajectory;
 }
 
+AtlasTrajectory SlamSystem::keyframeTrajectoryAll() const {
+  AtlasTrajectory trajectory;
+  std::shared_lock lock(map_.mutex());
+  for (const map::Keyframe* kf : map_.keyframes())
+    trajectory.push_back({kf->timestamp, kf->T_w_c(), kf->map_id, kf->map_id});
+  return trajectory;
+}
+
+int SlamSystem::mainMap() const {
+  std::shared_lock lock(map_.mutex());
+  return mainMapLocked();
+}
+
+std::optional<AtlasPose> SlamSystem::lastFramePose() const {
+  if (tracker_.records().empty() || next_frame_id_ == 0) return std::nullopt;
+  const tracking::FrameRecord& r = tracker_.records().back();
+  if (r.frame_id != next_frame_id_ - 1 || r.reference == nullptr) return std::nullopt;
+  std::shared_lock lock(map_.mutex());
+  const SE3 T_c_w = r.T_c_r * map::keyframeTcw(r.reference);
+  return AtlasPose{r.timestamp, T_c_w.inverse(), r.map_id, r.reference->map_id};
+}
+
 nlohmann::json SlamSystem::atlasJson() const {
   std::map<int, size_t> frames_tracked_in;
   std::map<int, std::pair<double, double>> span;  // first and last frame time per map it was tracked in

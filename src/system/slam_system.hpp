@@ -14,6 +14,7 @@
 #include <functional>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -122,6 +123,15 @@ class SlamSystem {
   // Every frame with a pose in any map, with its map and the map whose world the pose is in.
   AtlasTrajectory cameraTrajectoryAll() const;
   Trajectory keyframeTrajectory() const;
+  // Every keyframe with its map (map and world_map: the map it belongs to now, after merges).
+  AtlasTrajectory keyframeTrajectoryAll() const;
+  // The main map's id (see cameraTrajectory; -1 before any frame was tracked).
+  int mainMap() const;
+  // The pose of the frame processed last, in the world of the map it belongs to now (nullopt:
+  // that frame has no pose).
+  std::optional<AtlasPose> lastFramePose() const;
+  // Whether a map has been started (tracking is past initialisation).
+  bool initialised() const { return tracker_.state() != tracking::TrackingState::kNotInitialized; }
   // After finish(): fuses the dense map with the final keyframe poses and writes dense_map.ply,
   // dense_map.pcd, dense_map_sources.bin, octomap.bt and dense_map.png into out_dir. Returns counts
   // and timings. An empty dense map (no keyframe) writes nothing and says so ("exported": false,

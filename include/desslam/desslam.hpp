@@ -1,0 +1,150 @@
+// DeS-SLAM's public C++ API: the one header a user includes.
+//
+//   desslam::Config config = desslam::Config::fromYaml("config/tum_fr1.yaml");
+//   config.set("dense.enabled=false");
+//   desslam::Slam slam(config, {.deterministic = true});
+//   for (each frame) {
+//     const desslam::TrackResult r = slam.track(timestamp_s, bgr, depth_m);
+//     if (r.hasPose()) use(r.T_w_c, r.map_id);
+//   }
+//   slam.finish();                       // drains mapping, final global bundle adjustment
+//   auto poses = slam.trajectory();      // final poses of the main map
+//
+// Everything else under src/ is internal and may change. Errors are thrown as exceptions derived
+// from std::runtime_error whose message names the file, the option or the input at fault.
+//
+// Threads: one Slam object is used from one thread at a time (track() runs tracking on the
+// caller's thread; the object starts its own mapping, loop-closing, semantic and dense threads
+// and stops them in finish() or its destructor).
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+namespace desslam {
+
+struct SystemOptions;  // internal: every stage's options (src/core/options.hpp)
+
+// The library's version ("0.1.0").
+std::string version();
+
+// The options of a run: every stage's settings, from a YAML file (one section per stage, as in
+// config/*.yaml) and "section.key=value" assignments. Validated when a Slam is made from it.
+class Config {
+ public:
+  // Reads and validates a YAML file; throws naming the file and "section.key" at fault.
+  static Config fromYaml(const std::filesystem::path& yaml);
+  // The same for a YAML document in memory; `name` stands for it in messages.
+  static Config fromYamlString(const std::string& yaml, const std::string& name = "<config>");
+
+  Config(const Config& other);
+  Config& operator=(const Config& other);
+  Config(Config&&) noexcept;
+  Config& operator=(Config&&) noexcept;
+  ~Config();
+
+  // One "section.key=value" assignment, the value read as YAML (e.g. "dynamic.mode=off",
+  // "camera.distortion=[0,0,0,0,0]"). Throws naming the assignment for an unknown key or a value
+  // of the wrong type. Returns *this so that assignments chain.
+  Config& set(const std::string& assignment);
+  Config& set(const std::string& key, const std::string& value);
+  // Throws naming the first option out of range (e.g. after several set() calls).
+  void validate() const;
+  // Every section and key with its value, as JSON text (what report.json's "settings" holds).
+  std::string toJson() const;
+
+  // The internal options (for the project's own programs; not part of the stable API).
+  const SystemOptions& options() const;
+
+ private:
+  explicit Config(std::unique_ptr<SystemOptions> options);
+  std::unique_ptr<SystemOptions> options_;
+};
+
+struct RunMode {
+  // Every stage waits for the one before it: two runs give identical trajectories.
+  bool deterministic = false;
+  // Frames come at the sensor's rate and tracking never waits for the network (a late mask is
+  // carried forward along optical flow). Excludes `deterministic`.
+  bool realtime = false;
+};
+
+enum class TrackingState {
+  kNotInitialised,  // no map has started yet (waiting for a frame with enough static features)
+  kTracking,        // tracked against the map
+  kPredicted,       // lost, but within tracking.predict_through_loss_s: the motion prediction is its pose
+  kLost,            // no pose
+};
+
+// What track() found for one frame.
+struct TrackResult {
+  TrackingState state = TrackingState::kNotInitialised;
+  // World-from-camera, in the world of map `map_id` (identity when the frame has no pose).
+  Eigen::Matrix4d T_w_c = Eigen::Matrix4d::Identity();
+  int map_id = -1;          // the atlas map whose world T_w_c is in (-1: no pose)
+  bool keyframe = false;    // the frame became a keyframe
+  bool new_map = false;     // the frame started a map of the atlas
+  int inliers = 0;          // map points that agreed with the pose
+  bool hasPose() const { return state == TrackingState::kTracking || state == TrackingState::kPredicted; }
+};
+
+// A frame's pose: world-from-camera in the world of map `world_map_id`, the map that the map it was
+// tracked in (`map_id`) has been merged into (or that map itself).
+struct FramePose {
+  double timestamp_s = 0;
+  Eigen::Matrix4d T_w_c = Eigen::Matrix4d::Identity();
+  int map_id = 0;
+  int world_map_id = 0;
+};
+
+class Slam {
+ public:
+  // Starts every stage (loads the vocabulary and the segmentation model the config names).
+  // Throws naming the option or file at fault.
+  explicit Slam(const Config& config, const RunMode& mode = {});
+  ~Slam();  // finishes the run if finish() was not called
+  Slam(const Slam&) = delete;
+  Slam& operator=(const Slam&) = delete;
+
+  // Tracks one RGB-D frame. Frames must come in time order.
+  //   bgr: CV_8UC3 (OpenCV's channel order); depth: CV_32FC1 metres, or CV_16UC1 raw sensor units
+  //   (divided by the config's camera.depth_factor); 0 = no reading. Both of the config's size.
+  //   Neither is modified; they may be reused once track() returns.
+  //   depth_time_offset_s: how much later the depth image was taken than the colour image.
+  //   image_name: the frame's name for debug images and the mask_dir segmenter (default: its index).
+  // Throws for an image of the wrong type or size, and when a worker thread has failed.
+  TrackResult track(double timestamp_s, const cv::Mat& bgr, const cv::Mat& depth, double depth_time_offset_s = 0,
+                    const std::string& image_name = "");
+
+  // Waits for mapping, runs the final global bundle adjustment (mapping.final_global_ba) and
+  // stops the threads. Idempotent. The trajectories below follow the final keyframe poses.
+  void finish();
+
+  // The frames of the main map (the map that, after all merges, holds the most frames).
+  std::vector<FramePose> trajectory() const;
+  // Every frame with a pose in any map.
+  std::vector<FramePose> trajectoryAll() const;
+  // Every keyframe of the atlas (map_id: its map).
+  std::vector<FramePose> keyframeTrajectory() const;
+
+  // After finish(): writes the dense map (dense_map.ply, .pcd, octomap.bt, dense_map.png) into
+  // `directory` (created if needed). Returns what was written as JSON text.
+  std::string exportDenseMap(const std::filesystem::path& directory, bool semantic_colour = false) const;
+  // Counts, timings and per-frame statistics as JSON text (report.json's "statistics").
+  std::string statisticsJson() const;
+
+  std::size_t framesProcessed() const;
+  const Config& config() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace desslam
