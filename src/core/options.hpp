@@ -236,12 +236,22 @@ struct SemanticOptions {
   // On 2 cores an unthrottled network takes a whole core and starves mapping; masks between are
   // carried forward along optical flow.
   double realtime_max_rate_hz = 10.0;
+  // A keyframe made while the mask was carried forward (real time, emulated latency) gets its own
+  // frame's mask before local mapping uses it (segmented for it when the stream skipped that
+  // frame): the features in it leave the keyframe, and the points only it held leave the map.
+  bool keyframe_exact_mask = true;
+  // While tracking is lost (or no map has started), a frame waits for its own mask instead of
+  // taking a carried one (real time: segmented at once, ahead of the stream). A grown, misplaced
+  // mask leaves too few static features to relocalise or start a map, and a frame without a pose
+  // loses nothing by being a few milliseconds later.
+  bool own_mask_when_lost = true;
 
   static constexpr const char* kSection = "semantic";
   template <class V> void fields(V& v) {
     v("segmenter", segmenter); v("backend", backend); v("model_path", model_path); v("model_sha256", model_sha256);
     v("mask_dir", mask_dir); v("dynamic_classes", dynamic_classes); v("threads", threads);
-    v("realtime_max_rate_hz", realtime_max_rate_hz);
+    v("realtime_max_rate_hz", realtime_max_rate_hz); v("keyframe_exact_mask", keyframe_exact_mask);
+    v("own_mask_when_lost", own_mask_when_lost);
   }
   void validate() const;
 };

@@ -69,7 +69,11 @@ class Keyframe {
   const Timestamp timestamp;                        // immutable
   const std::string image_name;                     // immutable (RGB file name)
   const std::shared_ptr<const FeatureSet> features; // immutable
-  const std::vector<FeatureStatus> status;          // immutable: dynamic features are never mapped
+  // Dynamic features are never mapped. Set at creation; the one later change (a feature found in
+  // the keyframe's own, late mask becomes kDynamicMask) is made by local mapping's thread under
+  // the unique Map lock before local mapping processes the keyframe. Other threads read it only
+  // after that (they reach a keyframe through local mapping), so reading needs no lock.
+  std::vector<FeatureStatus> status;
   const cv::Mat half_depth;                         // immutable: CV_32F metres at half resolution (stage 2)
 
   // guarded

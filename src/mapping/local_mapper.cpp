@@ -343,10 +343,12 @@ void LocalMapper::cullRedundantKeyframes(map::Keyframe* kf) {
 }
 
 LocalMappingThread::LocalMappingThread(LocalMapper& mapper, MappingPause* pause,
-                                       std::function<void(map::Keyframe*)> on_processed)
+                                       std::function<void(map::Keyframe*)> on_processed,
+                                       std::function<void(map::Keyframe*)> before_processing)
     : mapper_(mapper),
       pause_(pause),
       on_processed_(std::move(on_processed)),
+      before_processing_(std::move(before_processing)),
       worker_("local mapping", 8, QueueFullPolicy::kBlock, [this](map::Keyframe*& kf) { process(kf); }) {
   if (pause_ != nullptr) pause_->setAbortFlag(&abort_ba_);
 }
@@ -361,6 +363,7 @@ void LocalMappingThread::push(map::Keyframe* kf) {
 void LocalMappingThread::stop() { worker_.stop(); }
 
 void LocalMappingThread::process(map::Keyframe* kf) {
+  if (before_processing_) before_processing_(kf);
   {
     // Left on the way out too: a failed keyframe must not keep loop closing waiting for the pause.
     struct Bracket {

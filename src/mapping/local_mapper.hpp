@@ -76,8 +76,11 @@ class LocalMapper {
 // pipeline rethrows it to its caller (core/queue_worker.hpp).
 class LocalMappingThread {
  public:
+  // before_processing / on_processed run on the mapping thread before and after each keyframe
+  // (before: outside the mapping pause, so it may wait without holding loop closing up).
   explicit LocalMappingThread(LocalMapper& mapper, MappingPause* pause = nullptr,
-                              std::function<void(map::Keyframe*)> on_processed = {});
+                              std::function<void(map::Keyframe*)> on_processed = {},
+                              std::function<void(map::Keyframe*)> before_processing = {});
   ~LocalMappingThread();
   void push(map::Keyframe* kf);
   bool idle() const { return worker_.pending() <= 0; }
@@ -92,6 +95,7 @@ class LocalMappingThread {
   LocalMapper& mapper_;
   MappingPause* pause_;
   std::function<void(map::Keyframe*)> on_processed_;
+  std::function<void(map::Keyframe*)> before_processing_;
   std::atomic<bool> abort_ba_{false};
   QueueWorker<map::Keyframe*> worker_;  // last: its thread starts once the members above exist
 };

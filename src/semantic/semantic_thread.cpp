@@ -1,5 +1,6 @@
 #include "semantic/semantic_thread.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <stdexcept>
 
@@ -85,14 +86,67 @@ std::shared_ptr<const Segmentation> SemanticThread::latest(std::uint64_t frame_i
   return it->second.result;
 }
 
+void SemanticThread::requestOwnMask(std::uint64_t frame_id, std::shared_ptr<const cv::Mat> bgr,
+                                     std::string frame_name) {
+  if (!bgr) throw InputError("semantic thread: frame " + frame_name + " was requested without an image");
+  {
+    std::lock_guard lock(mutex_);
+    if (stopping_) return;
+    ++own_mask_requests_;
+    if (const auto done = finished_.find(frame_id); done != finished_.end()) {
+      own_mask_results_[frame_id] = done->second;
+      return;
+    }
+    own_mask_wanted_.insert(frame_id);
+    // Still waiting in the stream, where a newer frame would drop it: it moves to the priority queue.
+    const auto waiting = std::find_if(pending_.begin(), pending_.end(), [&](const Job& j) { return j.frame_id == frame_id; });
+    if (waiting != pending_.end()) {
+      priority_jobs_.push_back(std::move(*waiting));
+      pending_.erase(waiting);
+    } else if (in_flight_.count(frame_id) == 0) {
+      // Dropped (or never submitted): segmented for the request alone.
+      in_flight_.insert(frame_id);
+      priority_jobs_.push_back(Job{frame_id, std::move(bgr), std::move(frame_name)});
+      ++own_mask_segmentations_;
+    }  // else: the worker is on it now; its result is kept when it finishes
+  }
+  job_available_.notify_all();
+}
+
+std::shared_ptr<const Segmentation> SemanticThread::waitForOwnMask(std::uint64_t frame_id) {
+  std::unique_lock lock(mutex_);
+  if (own_mask_wanted_.count(frame_id) == 0 && own_mask_results_.count(frame_id) == 0) return nullptr;
+  result_ready_.wait(lock, [&] { return stopping_ || own_mask_results_.count(frame_id) > 0; });
+  const auto it = own_mask_results_.find(frame_id);
+  if (it == own_mask_results_.end()) return nullptr;
+  Finished found = std::move(it->second);
+  own_mask_results_.erase(it);
+  lock.unlock();
+  if (found.error) std::rethrow_exception(found.error);
+  return found.result;
+}
+
+std::size_t SemanticThread::ownMaskRequestCount() const {
+  std::lock_guard lock(mutex_);
+  return own_mask_requests_;
+}
+
+std::size_t SemanticThread::ownMaskSegmentationCount() const {
+  std::lock_guard lock(mutex_);
+  return own_mask_segmentations_;
+}
+
 void SemanticThread::stop() {
   {
     std::lock_guard lock(mutex_);
     if (!stopping_) {
       stopping_ = true;
-      dropped_ += pending_.size();
+      dropped_ += pending_.size() + priority_jobs_.size();
       for (const Job& job : pending_) in_flight_.erase(job.frame_id);
+      for (const Job& job : priority_jobs_) in_flight_.erase(job.frame_id);
       pending_.clear();
+      priority_jobs_.clear();
+      own_mask_wanted_.clear();
     }
   }
   job_available_.notify_all();
@@ -125,10 +179,11 @@ void SemanticThread::run() {
     Job job;
     {
       std::unique_lock lock(mutex_);
-      job_available_.wait(lock, [&] { return stopping_ || !pending_.empty(); });
+      job_available_.wait(lock, [&] { return stopping_ || !pending_.empty() || !priority_jobs_.empty(); });
       if (stopping_) return;
-      job = std::move(pending_.front());
-      pending_.pop_front();
+      std::deque<Job>& queue = priority_jobs_.empty() ? pending_ : priority_jobs_;
+      job = std::move(queue.front());
+      queue.pop_front();
     }
     space_available_.notify_one();
 
@@ -145,6 +200,7 @@ void SemanticThread::run() {
       std::lock_guard lock(mutex_);
       in_flight_.erase(job.frame_id);
       if (done.result) ++segmented_;
+      if (own_mask_wanted_.erase(job.frame_id) > 0) own_mask_results_[job.frame_id] = done;
       finished_[job.frame_id] = std::move(done);
       if (mode_ == SemanticMode::kRealtime) {
         while (finished_.size() > kMaxRealtimeResults) finished_.erase(finished_.begin());
@@ -157,7 +213,8 @@ void SemanticThread::run() {
       const auto next = started + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                       std::chrono::duration<double>(1.0 / realtime_max_rate_hz_));
       std::unique_lock lock(mutex_);
-      job_available_.wait_until(lock, next, [&] { return stopping_; });
+      // An own-mask request does not wait for the rest (local mapping or tracking waits for it).
+      job_available_.wait_until(lock, next, [&] { return stopping_ || !priority_jobs_.empty(); });
     }
   }
 }

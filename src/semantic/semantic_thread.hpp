@@ -17,6 +17,12 @@
 //
 // Memory: a result is erased once consumed (waitFor) or when it is older than the newest result
 // handed out by latest(); at most kMaxRealtimeResults finished results are kept in real-time mode.
+//
+// Own masks (requestOwnMask/waitForOwnMask): a frame's own mask when a carried one will not do
+// (a keyframe made while the mask was carried forward, before local mapping uses it; a frame
+// while tracking is lost). The request is kept apart from the frame stream: a requested frame is
+// never dropped, jumps ahead of the stream's frames and is not held back by the real-time rate
+// limit; its result stays until waitForOwnMask() takes it.
 #pragma once
 
 #include <condition_variable>
@@ -73,6 +79,16 @@ class SemanticThread {
   // caller (they return nullptr) and joins. Idempotent.
   void stop();
 
+  // Asks for frame_id's own mask (any thread; never waits). Uses the frame's result when it is
+  // finished or being computed, else segments `bgr` before any frame of the stream.
+  void requestOwnMask(std::uint64_t frame_id, std::shared_ptr<const cv::Mat> bgr, std::string frame_name);
+  // Blocks until the requested frame's result is ready and hands it over (erased here). Returns
+  // nullptr at once for a frame never requested (or already taken), and after stop(). Rethrows
+  // the segmenter's exception for that frame.
+  std::shared_ptr<const Segmentation> waitForOwnMask(std::uint64_t frame_id);
+  std::size_t ownMaskRequestCount() const;       // requestOwnMask() calls
+  std::size_t ownMaskSegmentationCount() const;  // of those, frames the stream had dropped (segmented for it)
+
   SemanticMode mode() const { return mode_; }
   std::size_t segmentedCount() const;  // frames segmented successfully
   std::size_t droppedCount() const;    // frames dropped unsegmented (real-time mode, or at stop())
@@ -100,6 +116,11 @@ class SemanticThread {
   std::condition_variable space_available_;  // offline submit() waits: pending_ below capacity
   std::condition_variable result_ready_;   // waitFor() waits: its result, its drop, or stopping
   std::deque<Job> pending_;
+  std::deque<Job> priority_jobs_;      // own-mask requests not yet started (before pending_)
+  std::set<std::uint64_t> own_mask_wanted_;  // requested, result not in own_mask_results_ yet
+  std::map<std::uint64_t, Finished> own_mask_results_;  // until waitForOwnMask() takes them
+  std::size_t own_mask_requests_ = 0;
+  std::size_t own_mask_segmentations_ = 0;
   std::map<std::uint64_t, Finished> finished_;
   std::set<std::uint64_t> in_flight_;  // submitted, not finished and not dropped
   bool any_submitted_ = false;

@@ -89,7 +89,8 @@ SlamSystem::SlamSystem(const SystemOptions& options, const RunSettings& settings
         if (settings_.after_local_mapping) settings_.after_local_mapping(kf->id);
         if (loop_thread_) loop_thread_->push(kf);
       };
-    mapping_thread_ = std::make_unique<mapping::LocalMappingThread>(mapper_, &mapping_pause_, std::move(after_mapping));
+    mapping_thread_ = std::make_unique<mapping::LocalMappingThread>(
+        mapper_, &mapping_pause_, std::move(after_mapping), [this](map::Keyframe* kf) { applyKeyframeMask(kf); });
   }
   // The plain core (dynamic.mode off) has no dynamic-scene handling at all, in the dense map too.
   if (options_.dynamic.mode == "off") options_.dense.carve_free_space = false;
@@ -119,13 +120,20 @@ void SlamSystem::rethrowWorkerFailure() {
   if (dense_) report("dense-mapping", dense_->failure());
 }
 
-cv::Mat SlamSystem::maskFor(uint64_t frame_id, const std::vector<cv::KeyPoint>& keypoints, FrameStats& stats) {
+cv::Mat SlamSystem::maskFor(uint64_t frame_id, const std::shared_ptr<const cv::Mat>& bgr,
+                            const std::string& image_name, const std::vector<cv::KeyPoint>& keypoints,
+                            FrameStats& stats) {
   last_labels_ = cv::Mat();
   if (!semantic_) return {};
   const auto wait_start = std::chrono::steady_clock::now();
   std::shared_ptr<const semantic::Segmentation> result;
   uint64_t result_id = frame_id;
-  if (settings_.realtime) {
+  const bool lost = tracker_.state() != tracking::TrackingState::kOk;
+  if (carriesMasks() && lost && options_.semantic.own_mask_when_lost) {
+    semantic_->requestOwnMask(frame_id, bgr, image_name);
+    result = semantic_->waitForOwnMask(frame_id);
+    stats.own_mask_waited = true;
+  } else if (settings_.realtime) {
     result = semantic_->latest(frame_id, &result_id);
   } else if (settings_.mask_latency_frames > 0) {
     const uint64_t latency = static_cast<uint64_t>(settings_.mask_latency_frames);
@@ -186,7 +194,11 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   // Segmentation of this frame runs in the semantic thread while ORB features are extracted here.
   // Messages to other threads own their pixels (a copy): cv::Mat's reference count is invisible to
   // ThreadSanitizer, and the caller may reuse its buffers.
-  if (semantic_) semantic_->submit(frame_id, std::make_shared<const cv::Mat>(bgr.clone()), image_name);
+  std::shared_ptr<const cv::Mat> shared_bgr;
+  if (semantic_) {
+    shared_bgr = std::make_shared<const cv::Mat>(bgr.clone());
+    semantic_->submit(frame_id, shared_bgr, image_name);
+  }
 
   cv::Mat gray;
   cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
@@ -196,7 +208,7 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   if (carriesMasks() && semantic_) mask_propagator_.addFrame(frame_id, gray);
   stats.extraction_ms = millisecondsSince(start);
 
-  const cv::Mat dynamic_mask = maskFor(frame_id, keypoints, stats);
+  const cv::Mat dynamic_mask = maskFor(frame_id, shared_bgr, image_name, keypoints, stats);
   if (!dynamic_mask.empty()) {
     const auto topup_start = std::chrono::steady_clock::now();
     stats.features_added_outside_mask = topUpOutsideMask(gray, dynamic_mask, keypoints, descriptors);
@@ -249,6 +261,12 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
 
   if (outcome.new_keyframe != nullptr) {
     stats.keyframe = true;
+    // Its mask was another frame's, carried forward (or none had come yet): ask for its own.
+    if (semantic_ && carriesMasks() && options_.semantic.keyframe_exact_mask && stats.mask_age != 0) {
+      semantic_->requestOwnMask(frame_id, shared_bgr, image_name);
+      std::lock_guard lock(keyframe_mask_mutex_);
+      ++keyframe_masks_.requested;
+    }
     if (dense_) pushDenseKeyframe(outcome.new_keyframe, frame, bgr, last_labels_);
     if (mapping_thread_) {
       // Offline: mapping may run behind by one keyframe at most, so that tracking always has the
@@ -258,6 +276,7 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
       mapping_thread_->push(outcome.new_keyframe);
     }
     else {
+      applyKeyframeMask(outcome.new_keyframe);
       mapper_.process(outcome.new_keyframe, nullptr);
       if (settings_.after_local_mapping) settings_.after_local_mapping(outcome.new_keyframe->id);
       if (loop_closer_) loop_closer_->process(outcome.new_keyframe);
@@ -271,6 +290,39 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   stats.total_ms = millisecondsSince(start);
   frames_.push_back(stats);
   rethrowWorkerFailure();
+}
+
+void SlamSystem::applyKeyframeMask(map::Keyframe* kf) {
+  if (!semantic_) return;
+  const auto wait_start = std::chrono::steady_clock::now();
+  const std::shared_ptr<const semantic::Segmentation> own = semantic_->waitForOwnMask(kf->frame_id);
+  if (own == nullptr) return;  // not requested (its mask was its own), or the run is stopping
+  const double wait_ms = millisecondsSince(wait_start);
+  // The same exclusion as at the keyframe's creation (tracking: the mask dilated, then the mapping
+  // margin), now with the keyframe's own mask and no growth for age.
+  const DynamicOptions& d = options_.dynamic;
+  std::vector<uint8_t> in_mask;
+  if (!own->dynamic_mask.empty() && cv::countNonZero(own->dynamic_mask) > 0)
+    in_mask = dynamic::featuresInMask(*kf->features,
+                                      dynamic::dilateMask(own->dynamic_mask, d.mask_dilation_px + d.mapping_margin_px));
+  int features_removed = 0, points_removed = 0;
+  if (!in_mask.empty()) {
+    std::unique_lock lock(map_.mutex());
+    for (size_t i = 0; i < in_mask.size(); ++i) {
+      if (!in_mask[i] || kf->status[i] != map::FeatureStatus::kStatic) continue;
+      kf->status[i] = map::FeatureStatus::kDynamicMask;
+      ++features_removed;
+      if (map::MapPoint* p = kf->points[i]) {
+        map::eraseObservation(map_, p, kf);  // a point only this keyframe held goes with it
+        points_removed += p->bad ? 1 : 0;
+      }
+    }
+  }
+  std::lock_guard lock(keyframe_mask_mutex_);
+  ++keyframe_masks_.applied;
+  keyframe_masks_.features_removed += features_removed;
+  keyframe_masks_.points_removed += points_removed;
+  keyframe_masks_.wait_ms.push_back(wait_ms);
 }
 
 void SlamSystem::pushDenseKeyframe(const map::Keyframe* kf, const map::Frame& frame, const cv::Mat& bgr,
@@ -328,8 +380,11 @@ void SlamSystem::finish(const FinishControl& control) {
   const auto stage = [&control](const char* name) { return !control.on_stage || control.on_stage(name); };
   const auto aborted = [&control] { return control.abort != nullptr && control.abort->load(); };
   stage("mapping");
-  if (semantic_) semantic_->stop();
+  // Local mapping may still wait for keyframes' own masks: the network stops after it (at once
+  // when the run is being cut short).
+  if (semantic_ && aborted()) semantic_->stop();
   if (mapping_thread_) mapping_thread_->stop();
+  if (semantic_) semantic_->stop();
   if (loop_thread_) loop_thread_->stop(control.abort);  // drains its queue and waits for a global BA
   if (loop_closer_ && !loop_closer_->waitForGlobalBa(control.abort)) loop_closer_->abortGlobalBa();
   const bool worker_failed = [this] {
@@ -499,7 +554,7 @@ nlohmann::json SlamSystem::statistics() const {
                          {"stage2_removed", f.stage2_removed}, {"mask_age", f.mask_age}, {"mask_radius_px", f.mask_radius_px},
                          {"features_added_outside_mask", f.features_added_outside_mask},
                          {"free_space_removed", f.free_space_removed},
-                         {"fresh_mask", f.mask_age == 0}, {"segmentation_ms", f.segmentation_ms},
+                         {"fresh_mask", f.mask_age == 0}, {"own_mask_waited", f.own_mask_waited}, {"segmentation_ms", f.segmentation_ms},
                          {"tracking_ms", f.extraction_ms + f.tracking_ms}, {"tracked", f.tracked},
                          {"keyframe", f.keyframe}, {"inliers", f.inliers}, {"motion_model", f.motion_model},
                          {"timestamp", f.timestamp}, {"map", f.map}, {"new_map", f.new_map},
@@ -587,7 +642,26 @@ nlohmann::json SlamSystem::statistics() const {
                      {"pose_tracking", summarizeMilliseconds(tracking)},
                      {"tracking", summarizeMilliseconds(tracking_thread)},
                      {"frame_total", summarizeMilliseconds(total)}};
-  if (semantic_) j["semantic"] = {{"segmented", semantic_->segmentedCount()}, {"dropped", semantic_->droppedCount()}};
+  if (semantic_) {
+    // How old the masks tracking used were: frames per age (0 = its own), "10+" and "none".
+    nlohmann::json ages = nlohmann::json::object();
+    for (const FrameStats& f : frames_) {
+      const std::string key = f.mask_age < 0 ? "none" : (f.mask_age >= 10 ? "10+" : std::to_string(f.mask_age));
+      ages[key] = ages.value(key, 0) + 1;
+    }
+    j["semantic"] = {{"segmented", semantic_->segmentedCount()},
+                     {"dropped", semantic_->droppedCount()},
+                     {"mask_age_frames", ages}};
+    std::lock_guard lock(keyframe_mask_mutex_);
+    // Own masks: keyframes' (before local mapping) and lost frames' (semantic.own_mask_when_lost).
+    j["semantic"]["own_mask_requests"] = semantic_->ownMaskRequestCount();
+    j["semantic"]["own_mask_segmentations"] = semantic_->ownMaskSegmentationCount();  // frames the stream had dropped
+    j["semantic"]["keyframe_own_masks"] = {{"requested", keyframe_masks_.requested},
+                                           {"applied", keyframe_masks_.applied},
+                                           {"features_removed", keyframe_masks_.features_removed},
+                                           {"points_removed", keyframe_masks_.points_removed},
+                                           {"wait_ms", summarizeMilliseconds(keyframe_masks_.wait_ms)}};
+  }
   j["mode"] = settings_.deterministic ? "deterministic" : (settings_.realtime ? "realtime" : "offline");
   j["per_frame"] = std::move(per_frame);
   return j;

@@ -14,6 +14,7 @@
 #include <functional>
 #include <filesystem>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -78,6 +79,7 @@ struct FrameStats {
   double segmentation_ms = -1;  // network time of the mask used (-1: none)
   int mask_age = -1;         // frames between the mask's frame and this one (0 = fresh, -1 = no mask)
   int mask_radius_px = -1;   // dilation (+ growth of a carried mask) applied to it
+  bool own_mask_waited = false;  // lost: waited for its own mask instead of a carried one
   int features_added_outside_mask = 0;  // extra features on the background (a mask covered most)
   int features_with_depth = 0;  // keypoints with a valid depth reading (tracking.min/max_depth)
   int features = 0, in_mask = 0, semantic_removed = 0, stage1_checked = 0, stage1_removed = 0, stage2_removed = 0;
@@ -148,11 +150,17 @@ class SlamSystem {
 
  private:
   // The dilated mask of dynamic classes for this frame, and its provenance.
-  cv::Mat maskFor(uint64_t frame_id, const std::vector<cv::KeyPoint>& keypoints, FrameStats& stats);
+  // bgr: the frame's image as handed to the semantic thread (for an own-mask request).
+  cv::Mat maskFor(uint64_t frame_id, const std::shared_ptr<const cv::Mat>& bgr, const std::string& image_name,
+                  const std::vector<cv::KeyPoint>& keypoints, FrameStats& stats);
   // Extracts more features outside `mask` when fewer than dynamic.min_features_outside_mask lie
   // there, appending them; returns how many were added.
   int topUpOutsideMask(const cv::Mat& gray, const cv::Mat& mask, std::vector<cv::KeyPoint>& keypoints,
                        cv::Mat& descriptors) const;
+  // Local mapping's thread (or the caller when deterministic), before local mapping processes kf:
+  // when the keyframe's own mask was requested, waits for it, and the features in it (dilated as
+  // at the keyframe's creation) become dynamic; their points lose this observation.
+  void applyKeyframeMask(map::Keyframe* kf);
   // The live map holding the most tracked frames (-1: none). Map lock held shared.
   int mainMapLocked() const;
   // Throws WorkerError for the first failed worker thread, once (later calls return).
@@ -198,6 +206,18 @@ class SlamSystem {
   int dense_world_map_ = -1;
   std::vector<std::pair<const map::Keyframe*, std::shared_ptr<dense::DenseKeyframe>>> dense_held_;
   size_t dense_held_dropped_ = 0;
+
+  // Written by processFrame (requested) and applyKeyframeMask (local mapping's thread), read by
+  // statistics(); all under keyframe_mask_mutex_.
+  struct KeyframeMaskStats {
+    size_t requested = 0;         // keyframes made with a carried mask (tracking thread)
+    size_t applied = 0;           // keyframes that got their own mask
+    size_t features_removed = 0;  // their features found in it
+    size_t points_removed = 0;    // map points that left with them (held by no other keyframe)
+    std::vector<double> wait_ms;  // how long local mapping waited for the mask
+  };
+  mutable std::mutex keyframe_mask_mutex_;
+  KeyframeMaskStats keyframe_masks_;
 
   std::vector<FrameStats> frames_;
   uint64_t next_frame_id_ = 0;

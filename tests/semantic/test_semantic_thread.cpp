@@ -220,6 +220,70 @@ TEST(SemanticThread, RealtimeKeepsFewResults) {
   }
 }
 
+// A keyframe's frame that the real-time stream dropped is segmented for it, ahead of the stream,
+// and its result waits for local mapping however many newer frames pass.
+TEST(SemanticThread, RealtimeKeyframeRequestSegmentsADroppedFrame) {
+  Gate gate;
+  SemanticThread thread(std::make_unique<FakeSegmenter>(0ms, &gate), SemanticMode::kRealtime);
+  for (std::uint64_t id = 1; id <= 5; ++id) thread.submit(id, frameImage(id), frameName(id));
+  // The network holds frame 1; 2-4 were dropped by newer frames, 5 waits.
+  EXPECT_EQ(thread.waitForOwnMask(3), nullptr) << "not requested: must not wait";
+  thread.requestOwnMask(3, frameImage(3), frameName(3));
+  gate.open();
+  const auto three = thread.waitForOwnMask(3);
+  ASSERT_NE(three, nullptr);
+  EXPECT_EQ(labelOf(*three), 3);
+  EXPECT_EQ(thread.ownMaskRequestCount(), 1u);
+  EXPECT_EQ(thread.ownMaskSegmentationCount(), 1u);
+  EXPECT_EQ(thread.waitForOwnMask(3), nullptr) << "taken once";
+  // The stream goes on: frame 5 is still segmented.
+  EXPECT_NE(thread.waitFor(5), nullptr);
+}
+
+// A requested frame still waiting in the stream is not dropped by newer frames, nor segmented twice.
+TEST(SemanticThread, RealtimeKeyframeRequestKeepsAWaitingFrame) {
+  Gate gate;
+  SemanticThread thread(std::make_unique<FakeSegmenter>(0ms, &gate), SemanticMode::kRealtime);
+  thread.submit(1, frameImage(1), frameName(1));
+  // Frame 2 waits in the stream (or the worker took it instead of 1): either way it is kept.
+  thread.submit(2, frameImage(2), frameName(2));
+  thread.requestOwnMask(2, frameImage(2), frameName(2));
+  for (std::uint64_t id = 3; id <= 6; ++id) thread.submit(id, frameImage(id), frameName(id));
+  gate.open();
+  const auto two = thread.waitForOwnMask(2);
+  ASSERT_NE(two, nullptr);
+  EXPECT_EQ(labelOf(*two), 2);
+  EXPECT_EQ(thread.ownMaskSegmentationCount(), 0u) << "the stream's frame was kept, not segmented again";
+}
+
+// Offline (emulated latency): the keyframe's result survives the stream's waitFor() of later frames.
+TEST(SemanticThread, OfflineKeyframeResultOutlivesLaterWaits) {
+  SemanticThread thread(std::make_unique<FakeSegmenter>(0ms), SemanticMode::kOffline);
+  thread.submit(1, frameImage(1), frameName(1));
+  thread.requestOwnMask(1, frameImage(1), frameName(1));
+  thread.submit(2, frameImage(2), frameName(2));
+  ASSERT_NE(thread.waitFor(2), nullptr);  // erases frame 1's stream result
+  const auto one = thread.waitForOwnMask(1);
+  ASSERT_NE(one, nullptr);
+  EXPECT_EQ(labelOf(*one), 1);
+  EXPECT_EQ(thread.ownMaskSegmentationCount(), 0u) << "the stream's own segmentation served it";
+}
+
+TEST(SemanticThread, StopReleasesAKeyframeWaiter) {
+  Gate gate;
+  SemanticThread thread(std::make_unique<FakeSegmenter>(0ms, &gate), SemanticMode::kRealtime);
+  thread.submit(1, frameImage(1), frameName(1));
+  thread.requestOwnMask(7, frameImage(7), frameName(7));
+  auto waiter = std::async(std::launch::async, [&] { return thread.waitForOwnMask(7); });
+  std::this_thread::sleep_for(20ms);
+  auto stopper = std::async(std::launch::async, [&] { thread.stop(); });
+  std::this_thread::sleep_for(20ms);
+  gate.open();
+  ASSERT_EQ(waiter.wait_for(10s), std::future_status::ready) << "waitForOwnMask() hung after stop()";
+  stopper.get();
+  EXPECT_EQ(waiter.get(), nullptr);
+}
+
 TEST(SemanticThread, StopWhileWaitingReturnsCleanly) {
   Gate gate;
   auto thread = std::make_unique<SemanticThread>(std::make_unique<FakeSegmenter>(0ms, &gate),
