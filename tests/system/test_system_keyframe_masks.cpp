@@ -25,7 +25,7 @@ struct MaskRun {
   size_t tracked = 0;
 };
 
-MaskRun runWithLateMasks(const std::filesystem::path& dir, bool keyframe_exact_mask) {
+MaskRun runWithLateMasks(const std::filesystem::path& dir, bool keyframe_exact_mask, bool deterministic = true) {
   const io::TumSequence sequence = io::TumSequence::open(dir);
   SystemOptions options = test::syntheticSystemOptions();
   options.semantic.segmenter = "mask_dir";
@@ -35,7 +35,7 @@ MaskRun runWithLateMasks(const std::filesystem::path& dir, bool keyframe_exact_m
   // The carried mask as it is carried, not grown for its age: a grown one covers the box anyway here.
   options.dynamic.carried_mask_growth_px = 0;
   system::RunSettings settings;
-  settings.deterministic = true;
+  settings.deterministic = deterministic;
   settings.mask_latency_frames = 10;
   settings.mask_period_frames = 3;
   system::SlamSystem slam(options, settings);
@@ -52,13 +52,17 @@ MaskRun runWithLateMasks(const std::filesystem::path& dir, bool keyframe_exact_m
   return run;
 }
 
-TEST(SystemKeyframeMasks, LateMaskedKeyframesGetTheirOwnMask) {
-  test::TempDir dir;
+void writeWalkingBoxSequence(const std::filesystem::path& dir) {
   const CameraOptions camera = sim::syntheticCamera();
   sim::SceneOptions scene_options;
   scene_options.moving_object = true;
   const sim::SyntheticScene scene(scene_options, camera);
-  sim::writeSequence(dir.path(), scene, sim::sweepPath(kFrames, camera.fps), camera, /*write_masks=*/true);
+  sim::writeSequence(dir, scene, sim::sweepPath(kFrames, camera.fps), camera, /*write_masks=*/true);
+}
+
+TEST(SystemKeyframeMasks, LateMaskedKeyframesGetTheirOwnMask) {
+  test::TempDir dir;
+  writeWalkingBoxSequence(dir.path());
 
   const MaskRun with = runWithLateMasks(dir.path(), true);
   const MaskRun without = runWithLateMasks(dir.path(), false);
@@ -96,6 +100,19 @@ TEST(SystemKeyframeMasks, LateMaskedKeyframesGetTheirOwnMask) {
   EXPECT_GE(with.tracked, static_cast<size_t>(0.95 * kFrames));
   // Fewer points on the walking box: the trajectory is no worse (deterministic runs).
   EXPECT_LE(with.ate_m, without.ate_m + 1e-4);
+}
+
+// With the mapping thread: local mapping waits for each keyframe's own mask on its own thread
+// while tracking goes on (the ThreadSanitizer build runs this too).
+TEST(SystemKeyframeMasks, MappingThreadWaitsForTheKeyframesOwnMask) {
+  test::TempDir dir;
+  writeWalkingBoxSequence(dir.path());
+  const MaskRun threaded = runWithLateMasks(dir.path(), true, /*deterministic=*/false);
+  const nlohmann::json& own = threaded.statistics["semantic"]["keyframe_own_masks"];
+  EXPECT_GT(own["requested"].get<size_t>(), 2u);
+  EXPECT_EQ(own["applied"].get<size_t>(), own["requested"].get<size_t>());
+  EXPECT_GT(own["features_removed"].get<size_t>(), 0u);
+  EXPECT_GE(threaded.tracked, static_cast<size_t>(0.95 * kFrames));
 }
 
 }  // namespace
