@@ -10,7 +10,14 @@ double niceStep(double lo, double hi, int target_ticks) {
   const double raw = (hi - lo) / std::max(1, target_ticks - 1);
   const double magnitude = std::pow(10.0, std::floor(std::log10(raw)));
   const double fraction = raw / magnitude;  // in [1, 10)
-  const double nice = fraction <= 1.0 ? 1.0 : fraction <= 2.0 ? 2.0 : fraction <= 2.5 ? 2.5 : fraction <= 5.0 ? 5.0 : 10.0;
+  // The tolerance keeps a fraction that is 1, 2, 2.5 or 5 up to rounding (0.3 / 3 = 0.09999...)
+  // on that step rather than the next one.
+  constexpr double kTolerance = 1e-9;
+  const double nice = fraction <= 1.0 + kTolerance   ? 1.0
+                      : fraction <= 2.0 + kTolerance ? 2.0
+                      : fraction <= 2.5 + kTolerance ? 2.5
+                      : fraction <= 5.0 + kTolerance ? 5.0
+                                                     : 10.0;
   return nice * magnitude;
 }
 

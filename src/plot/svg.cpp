@@ -17,6 +17,7 @@ constexpr double kMarginLeft = 80, kMarginRight = 24, kTitleHeight = 34;
 constexpr double kLegendRow = 18, kLegendGap = 6, kTickLabelHeight = 20, kXLabelHeight = 22, kPanelGap = 18;
 constexpr double kCharWidth = 7.0;
 constexpr double kMinEqualAspectHeight = 160;
+constexpr double kEventLane = 9;  // vertical spacing of the event kinds' triangles
 
 std::string num(double v) {
   char text[32];
@@ -88,6 +89,7 @@ struct PanelLayout {
 
 Range dataRange(const Extent& e, bool include_zero) {
   if (e.empty()) return {0, 1};
+  if (include_zero && e.lo == 0 && e.hi == 0) return {0, 1};  // all zero: no negative half
   return {include_zero ? std::min(0.0, e.lo) : e.lo, include_zero ? std::max(0.0, e.hi) : e.hi};
 }
 
@@ -128,8 +130,10 @@ void drawLegend(std::ostringstream& out, const std::vector<std::vector<LegendIte
       else if (item.kind == LegendItem::kPoint)
         out << "<circle cx=\"" << num(x + 10) << "\" cy=\"" << num(y - 4) << "\" r=\"3.5\" fill=\"" << xmlEscape(item.colour)
             << "\"/>\n";
-      else
-        line(out, x + 10, y - 12, x + 10, y + 3, strokeAttributes(item.colour, 2, item.dashed));
+      else {
+        line(out, x + 10, y - 12, x + 10, y + 3, strokeAttributes(item.colour, 1.5, item.dashed));
+        out << "<path d=\"M" << num(x + 6) << "," << num(y - 12) << "h8l-4,7z\" fill=\"" << xmlEscape(item.colour) << "\"/>\n";
+      }
       text(out, x + 26, y, item.label);
       x += legendItemWidth(item);
     }
@@ -208,8 +212,9 @@ std::string renderSvg(const Figure& figure) {
   for (size_t p = 0; p < figure.panels.size(); ++p)
     for (const EventMarkers& e : figure.panels[p].events)
       for (const double x : e.x) x_extent.add(x);
-  Range x_range = figure.x_range ? *figure.x_range : niceRange(dataRange(x_extent, figure.x_includes_zero).min,
-                                                              dataRange(x_extent, figure.x_includes_zero).max);
+  const int x_ticks = std::max(3, static_cast<int>(box_width / 90));  // about one per 90 px
+  const Range x_data = dataRange(x_extent, figure.x_includes_zero);
+  const Range x_range = figure.x_range ? *figure.x_range : niceRange(x_data.min, x_data.max, x_ticks);
 
   std::vector<PanelLayout> layouts(figure.panels.size());
   double y_cursor = kTitleHeight;
@@ -221,21 +226,29 @@ std::string renderSvg(const Figure& figure) {
     L.box_top = L.top + kLegendRow * static_cast<double>(L.legend.size()) + (L.legend.empty() ? 0 : kLegendGap);
     L.has_data = !y_extents[p].empty();
     const Range y_data = dataRange(y_extents[p], panel.y_includes_zero);
-    L.y = panel.y_range ? *panel.y_range : niceRange(y_data.min, y_data.max);
+    const int y_ticks = std::max(3, static_cast<int>(std::max(40.0, panel.height_px) / 45));  // one per 45 px
+    L.y = panel.y_range ? *panel.y_range : niceRange(y_data.min, y_data.max, y_ticks);
     L.x = x_range;
     L.box_height = std::max(40.0, panel.height_px);
     if (figure.equal_aspect) {
-      // The box takes the data's proportions, within limits; the rest is made equal by widening.
-      const Range xd = x_extent.empty() ? Range{0, 1} : niceRange(x_extent.lo, x_extent.hi);
-      const double aspect = (L.y.max - L.y.min) / std::max(1e-12, xd.max - xd.min);
+      // The data with a small margin (no widening to ticks: that would waste a map's space); the
+      // box takes its proportions within limits, and the rest is made equal by widening.
+      const auto padded = [](const Extent& e) {
+        if (e.empty()) return Range{0, 1};
+        const double pad = std::max(0.04 * (e.hi - e.lo), 0.01);
+        return Range{e.lo - pad, e.hi + pad};
+      };
+      L.x = figure.x_range ? *figure.x_range : padded(x_extent);
+      if (!panel.y_range) L.y = padded(y_extents[p]);
+      const double aspect = (L.y.max - L.y.min) / std::max(1e-12, L.x.max - L.x.min);
       L.box_height = std::clamp(box_width * aspect, kMinEqualAspectHeight, std::max(kMinEqualAspectHeight, panel.height_px));
-      L.x = figure.x_range ? *figure.x_range : xd;
       equalise(L.x, L.y, box_width, L.box_height);
     }
-    L.x_step = niceStep(L.x.min, L.x.max, std::max(3, static_cast<int>(box_width / 90)));
-    L.y_step = panel.y_tick_step && *panel.y_tick_step > 0
-                   ? *panel.y_tick_step
-                   : niceStep(L.y.min, L.y.max, std::max(3, static_cast<int>(L.box_height / 45)));
+    L.x_step = niceStep(L.x.min, L.x.max, x_ticks);
+    if (panel.y_tick_step && *panel.y_tick_step > 0)
+      L.y_step = *panel.y_tick_step;
+    else  // at least about 5 ticks, so that a flat box (a side view) still has 2 or 3 labels
+      L.y_step = niceStep(L.y.min, L.y.max, std::max(5, static_cast<int>(L.box_height / 45)));
     y_cursor = L.box_top + L.box_height + kTickLabelHeight + (p + 1 == figure.panels.size() ? kXLabelHeight : kPanelGap);
   }
   const double height = y_cursor + 8;
@@ -278,14 +291,28 @@ std::string renderSvg(const Figure& figure) {
         << ")\">" << xmlEscape(panel.y_label) << "</text>\n";
 
     out << "<g clip-path=\"url(#" << xmlEscape(clip_id) << ")\">\n";
-    for (const EventMarkers& e : panel.events) {
-      out << "<g " << strokeAttributes(e.colour, 1.2, e.dashed) << " stroke-opacity=\"0.8\">\n";
+    // Each kind of event: a faint line across the box and a triangle in its own lane at the top,
+    // so that kinds at (nearly) the same time stay apart.
+    std::string event_paths;
+    for (size_t k = 0; k < panel.events.size(); ++k) {
+      const EventMarkers& e = panel.events[k];
+      const double lane_y = top + 3 + kEventLane * static_cast<double>(k);
+      std::string triangles;
+      out << "<g " << strokeAttributes(e.colour, 1.0, e.dashed) << " stroke-opacity=\"0.55\">\n";
       for (const double x : e.x)
-        if (std::isfinite(x) && x >= L.x.min && x <= L.x.max) line(out, sx(x), top, sx(x), bottom, "");
+        if (std::isfinite(x) && x >= L.x.min && x <= L.x.max) {
+          line(out, sx(x), top, sx(x), bottom, "");
+          triangles += 'M';
+          triangles += num(sx(x) - 4);
+          triangles += ',';
+          triangles += num(lane_y);
+          triangles += "h8l-4,7z";
+        }
       out << "</g>\n";
+      if (!triangles.empty()) event_paths += "<path d=\"" + triangles + "\" fill=\"" + xmlEscape(e.colour) + "\"/>\n";
     }
     for (const Series& s : panel.series) drawSeries(out, s, sx, sy);
-    out << "</g>\n";
+    out << "</g>\n" << event_paths;  // the triangles unclipped: one at the box's edge stays whole
     if (!L.has_data) text(out, 0.5 * (left + right), label_y, panel.empty_note, "text-anchor=\"middle\" fill=\"#666666\"");
   }
   if (!layouts.empty()) {
