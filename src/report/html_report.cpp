@@ -215,7 +215,10 @@ std::string settingsTable(const json& r) {
       if (values.is_object()) {
         bool first = true;
         for (const auto& [key, value] : values.items()) {
-          out << (first ? "" : "; ") << esc(key) << " = " << esc(value.is_string() ? value.get<std::string>() : value.dump());
+          // Strings bare (empty ones as "" so that "key = " is not read as a missing value).
+          const std::string text = value.is_string() && !value.get<std::string>().empty() ? value.get<std::string>()
+                                                                                          : value.dump();
+          out << (first ? "" : "; ") << esc(key) << " = " << esc(text);
           first = false;
         }
       } else {

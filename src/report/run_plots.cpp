@@ -327,6 +327,14 @@ void addDynamicPlot(const json& report, double t0, RunPlots& out) {
     with_mask += mask_age >= 0;
   }
   age.series.push_back(a);
+  // Ages are whole frames: integer ticks while they fit (offline runs use each frame's own mask).
+  double max_age = 0;
+  for (const double v : a.y)
+    if (std::isfinite(v)) max_age = std::max(max_age, v);
+  if (max_age <= 4) {
+    age.y_range = plot::Range{0, std::max(1.0, max_age)};
+    age.y_tick_step = 1;
+  }
   figure.panels = {counts, age};
   std::string mode = "?";
   if (const json& settings = report.value("settings", json::object()); settings.contains("dynamic") &&
@@ -360,20 +368,17 @@ void addTimingPlot(const json& report, double t0, RunPlots& out) {
     fields = {{"extraction_ms", "ORB extraction", kBlue},
               {"pose_tracking_ms", "pose tracking and dynamic checks", kGreen},
               {"mask_wait_ms", "waiting for the mask", kOrange},
-              {"segmentation_ms", "segmentation (network, of the mask used)", kPurple},
-              {"total_ms", "whole frame", kGrey}};
+              {"segmentation_ms", "segmentation (network time of the mask used)", kPurple},
+              {"total_ms", "whole frame (processFrame)", kGrey}};
   else
     fields = {{"tracking_ms", "ORB extraction + pose tracking", kBlue},
-              {"segmentation_ms", "segmentation (network, of the mask used)", kPurple}};
+              {"segmentation_ms", "segmentation (network time of the mask used)", kPurple}};
   plot::Figure figure;
   figure.id = "stage_timings";
   figure.title = "Time per frame of each stage";
   figure.x_label = "time since the first frame (s)";
-  plot::Panel panel;
-  panel.y_label = "ms per frame";
-  panel.height_px = 260;
-  std::vector<double> all;
-  std::string medians;
+  std::string medians, cuts;
+  // One panel per stage (five lines in one box hide each other), each with its own axis.
   for (const Field& field : fields) {
     plot::Series s = series(field.label, field.colour, plot::SeriesStyle::kLine, 1.0);
     std::vector<double> values;
@@ -384,32 +389,30 @@ void addTimingPlot(const json& report, double t0, RunPlots& out) {
       if (v >= 0) values.push_back(v);
     }
     if (values.empty()) continue;
-    all.insert(all.end(), values.begin(), values.end());
-    std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+    std::sort(values.begin(), values.end());
     medians += std::string(medians.empty() ? "" : ", ") + field.label + " " + fixed(values[values.size() / 2], 1) + " ms";
-    panel.series.push_back(std::move(s));
-  }
-  std::string cut;
-  if (!all.empty()) {
-    // A few slow frames (a map merge, a full queue) would flatten every other frame: cut the axis
-    // above the 99th percentile and say so.
-    std::sort(all.begin(), all.end());
-    const double p99 = all[static_cast<size_t>(0.99 * (all.size() - 1))];
-    if (all.back() > 1.5 * p99 && p99 > 0) {
+    plot::Panel panel;
+    panel.y_label = "ms";
+    panel.height_px = 90;
+    // A few slow frames (the first one, a map merge, a full queue) would flatten every other
+    // frame: cut the axis above the 99th percentile and say so.
+    const double p99 = values[static_cast<size_t>(0.99 * (values.size() - 1))];
+    if (values.back() > 1.5 * p99 && p99 > 0) {
       const double top = plot::niceRange(0, 1.2 * p99).max;
       panel.y_range = plot::Range{0, top};
-      const size_t above = static_cast<size_t>(all.end() - std::upper_bound(all.begin(), all.end(), top));
-      cut = " The axis is cut at " + fixed(top, 0) + " ms: " + std::to_string(above) + " values lie above, up to " +
-            fixed(all.back(), 0) + " ms.";
+      const size_t above = static_cast<size_t>(values.end() - std::upper_bound(values.begin(), values.end(), top));
+      cuts += " " + std::string(field.label) + ": axis cut at " + fixed(top, 0) + " ms, " + std::to_string(above) +
+              " values above, up to " + fixed(values.back(), 0) + " ms.";
     }
+    panel.series.push_back(std::move(s));
+    figure.panels.push_back(std::move(panel));
   }
-  figure.panels.push_back(panel);
   RunPlot plot;
   plot.id = figure.id;
   plot.title = figure.title;
   plot.caption = "Per frame, on the tracking thread (segmentation runs on its own thread; its time is that of the "
                  "mask the frame used). Medians: " +
-                 (medians.empty() ? std::string("none") : medians) + "." + cut;
+                 (medians.empty() ? std::string("none") : medians) + "." + cuts;
   plot.svg = plot::renderSvg(figure);
   out.plots.push_back(std::move(plot));
 }

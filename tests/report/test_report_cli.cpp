@@ -104,7 +104,8 @@ TEST_F(DesslamReport, RunWritesThePlotsAndReportWritesASelfContainedPageNamingEv
 }
 
 TEST_F(DesslamReport, WithoutGroundTruthThePlotsThatNeedItAreLeftOutAndThePageSaysWhy) {
-  test::writeSyntheticSequence(sequence(), 20);
+  // 40 frames (1.3 s): enough for RPE's 1 s windows once the ground truth is given below.
+  test::writeSyntheticSequence(sequence(), 40);
   fs::remove(sequence() / "groundtruth.txt");
   dir_.write("synthetic.yaml", test::syntheticConfigYaml());
   const CommandResult run = desslam("run " + shellQuote(sequence().string()) + " --config " +
@@ -126,7 +127,7 @@ TEST_F(DesslamReport, WithoutGroundTruthThePlotsThatNeedItAreLeftOutAndThePageSa
   EXPECT_CONTAINS(html, "id=\"dynamic_features\"");
 
   // The ground truth given on the command line instead.
-  test::writeSyntheticSequence(dir_ / "with_gt", 20);
+  test::writeSyntheticSequence(dir_ / "with_gt", 40);
   const CommandResult given = desslam("report " + shellQuote(out().string()) + " --groundtruth " +
                                       shellQuote((dir_ / "with_gt" / "groundtruth.txt").string()));
   ASSERT_EQ(given.exit_code, 0) << given.err;

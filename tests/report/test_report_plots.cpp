@@ -126,7 +126,9 @@ TEST(ReportPlots, WithGroundTruthEveryPlotIsMadeAndNamed) {
   EXPECT_CONTAINS(find(plots, "trajectory_top")->title, "(x-y)");
   EXPECT_CONTAINS(find(plots, "trajectory_side")->title, "(x-z)");
   // The one slow frame (900 ms) does not flatten the timing plot: the axis is cut and says so.
-  EXPECT_CONTAINS(find(plots, "stage_timings")->caption, "1 values lie above, up to 900 ms");
+  EXPECT_CONTAINS(find(plots, "stage_timings")->caption,
+                  "whole frame (processFrame): axis cut at 40 ms, 1 values above, up to 900 ms.");
+  EXPECT_EQ(find(plots, "stage_timings")->caption.find("ORB extraction: axis cut"), std::string::npos);
   // Mask removals never happened (full mode): not in the legend; stage 1 and 2 are.
   const std::string& dynamic = find(plots, "dynamic_features")->svg;
   EXPECT_EQ(dynamic.find("removed by the mask"), std::string::npos);
