@@ -42,6 +42,7 @@
 #include "io/trajectory_io.hpp"
 #include "io/tum_dataset.hpp"
 #include "plausibility/sequence_check.hpp"
+#include "report/run_plots.hpp"
 #include "system/slam_system.hpp"
 
 namespace desslam::app {
@@ -226,7 +227,10 @@ void prepareOutputFolder(const std::filesystem::path& out_dir, bool overwrite) {
                        "): pass --overwrite to replace them, or choose another --out folder");
     if (overwrite) {
       std::vector<fs::path> remove;
-      for (const char* name : kRunOutputs)
+      std::vector<std::string> names(std::begin(kRunOutputs), std::end(kRunOutputs));
+      for (const std::string& id : report::runPlotIds()) names.push_back(id + ".svg");  // and `desslam report`'s page
+      names.push_back("report.html");
+      for (const std::string& name : names)
         if (fs::is_regular_file(fs::symlink_status(out_dir / name, ec)) || fs::is_symlink(out_dir / name, ec))
           remove.push_back(out_dir / name);
       for (const fs::directory_entry& entry : fs::directory_iterator(out_dir, ec))
@@ -480,6 +484,22 @@ int runSequence(const RunArgs& args) {
                    : nothing_tracked              ? exit_code::kNothingTracked
                                                   : exit_code::kOk;
   report["exit_code"] = code;
+  // The plots beside report.json (`desslam report` remakes them with the HTML page). They only
+  // picture what the run computed, so failing to draw them is a warning, not the run's status.
+  if (error.code != exit_code::kOutputError) {
+    try {
+      const Trajectory* gt = sequence.groundTruth() ? &*sequence.groundTruth() : nullptr;
+      const std::string no_gt = sequence.groundTruthProblem().empty() ? "the sequence has no groundtruth.txt"
+                                                                       : sequence.groundTruthProblem();
+      const report::RunPlots plots = report::makeRunPlots(report, trajectory, gt, no_gt);
+      report::writeRunPlots(out_dir, plots);
+      report["plots"] = report::toJson(plots);
+    } catch (const std::exception& e) {
+      report["plots"] = {{"error", e.what()}};
+      std::fprintf(stderr, "warning: plots not written: %s (run `desslam report %s` to retry)\n", e.what(),
+                   out_dir.string().c_str());
+    }
+  }
   RunError report_error;
   attempt(report_error, [&] { writeJson(out_dir / "report.json", report); });
   if (!args.quiet && !error && !report_error) {

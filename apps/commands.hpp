@@ -21,6 +21,7 @@ void registerRunCommand(CLI::App& app);   // cmd_run.cpp
 void registerEvalCommand(CLI::App& app);  // cmd_eval.cpp
 void registerVocabCommand(CLI::App& app);  // cmd_vocab.cpp
 void registerMapCheckCommand(CLI::App& app);  // cmd_mapcheck.cpp
+void registerReportCommand(CLI::App& app);    // cmd_report.cpp
 
 // Thrown by a command that has done its work and said what happened (stderr) to end the program
 // with a status other than 0 (core/exit_codes.hpp), e.g. `run` after an interruption.

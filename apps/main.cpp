@@ -47,6 +47,7 @@ int main(int argc, char** argv) {
   desslam::app::registerEvalCommand(app);
   desslam::app::registerVocabCommand(app);
   desslam::app::registerMapCheckCommand(app);
+  desslam::app::registerReportCommand(app);
   if (const std::string unknown = unknownSubcommandMessage(app, argc, argv); !unknown.empty()) {
     std::cerr << "error: " << unknown << "\n";
     return exit_code::kUsage;

@@ -67,8 +67,12 @@ AteResult computeAte(const Trajectory& gt, const Trajectory& est, double max_dt)
 
   std::vector<double> errors;
   errors.reserve(matches.size());
-  for (std::size_t i = 0; i < matches.size(); ++i)
+  result.per_pose.reserve(matches.size());
+  for (std::size_t i = 0; i < matches.size(); ++i) {
     errors.push_back((gt_points[i] - result.T_gt_est * est_points[i]).norm());
+    result.per_pose.push_back({est[matches[i].est_index].timestamp, errors.back(), matches[i].gt_index,
+                               matches[i].est_index});
+  }
   result.translation_m = summarize(std::move(errors));
   return result;
 }
@@ -84,6 +88,7 @@ RpeResult computeRpe(const Trajectory& gt, const Trajectory& est, double delta_s
   for (const Match& m : matches) times.push_back(est[m.est_index].timestamp);
 
   std::vector<double> translation_errors, rotation_errors;
+  std::vector<RpePair> per_pair;
   for (std::size_t i = 0; i < matches.size(); ++i) {
     const double target = times[i] + delta_s;
     if (target > times.back() + max_dt) break;  // the window would run past the trajectory's end
@@ -99,12 +104,14 @@ RpeResult computeRpe(const Trajectory& gt, const Trajectory& est, double delta_s
     const SE3 error = (gt_i.inverse() * gt_j).inverse() * (est_i.inverse() * est_j);
     translation_errors.push_back(error.translation().norm());
     rotation_errors.push_back(error.rotationAngle() * 180.0 / std::numbers::pi);
+    per_pair.push_back({times[i], times[j], translation_errors.back(), rotation_errors.back()});
   }
   RpeResult result;
   result.delta_s = delta_s;
   result.pairs = translation_errors.size();
   result.translation_m = summarize(std::move(translation_errors));
   result.rotation_deg = summarize(std::move(rotation_errors));
+  result.per_pair = std::move(per_pair);
   return result;
 }
 

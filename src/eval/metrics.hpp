@@ -18,22 +18,37 @@ struct ErrorStats {
 };
 ErrorStats summarize(std::vector<double> errors);
 
+// One matched pose's ATE: at the estimate's timestamp, indices into the trajectories as given.
+struct PoseError {
+  Timestamp timestamp = 0;
+  double error_m = 0;
+  std::size_t gt_index = 0, est_index = 0;
+};
+
 struct AteResult {
   ErrorStats translation_m;  // |gt_i - T_gt_est * est_i| over the matched poses
   SE3 T_gt_est;              // maps the estimate's world frame into the ground truth's
   std::size_t matched = 0, gt_poses = 0, est_poses = 0;
   bool alignment_unique = true;  // false: the estimate is collinear/stationary, T_gt_est is one of many
+  std::vector<PoseError> per_pose;  // what translation_m summarises, in estimate-time order (plots)
 };
 
 // Associates (max_dt seconds), aligns with one rigid SE(3), reports translation errors.
 // Throws InputError when fewer than 3 poses associate ("no timestamps within max_dt").
 AteResult computeAte(const Trajectory& gt, const Trajectory& est, double max_dt = 0.02);
 
+// One RPE pair: estimate poses at start_time and end_time (about delta_s later).
+struct RpePair {
+  Timestamp start_time = 0, end_time = 0;
+  double translation_m = 0, rotation_deg = 0;
+};
+
 struct RpeResult {
   ErrorStats translation_m;  // metres per delta_s
   ErrorStats rotation_deg;   // degrees per delta_s
   double delta_s = 1.0;
   std::size_t pairs = 0;
+  std::vector<RpePair> per_pair;  // what the two summaries summarise, in start-time order (plots)
 };
 
 // For each associated estimate pose i, the associated estimate pose j whose time is closest to

@@ -1,4 +1,6 @@
+#include <algorithm>
 #include <cmath>
+#include <vector>
 #include <numbers>
 
 #include <gtest/gtest.h>
@@ -71,6 +73,33 @@ TEST(EvalAte, RadialOffsetThatAlignmentCannotRemoveGivesItsSize) {
   EXPECT_NEAR(ate.translation_m.std, 0.0, 1e-7);
 }
 
+TEST(EvalAte, PerPoseErrorsAreWhatTheSummaryIsOf) {
+  // Errors grow along the trajectory (a scale error the rigid alignment cannot remove): the
+  // per-pose list must carry each pose's own error, at its own time, in time order.
+  const Trajectory gt = curvedGroundTruth(3.0);
+  Trajectory est = gt;
+  for (StampedPose& pose : est) pose.T_w_c = SE3(pose.T_w_c.quaternion(), 1.1 * pose.T_w_c.translation());
+  std::reverse(est.begin(), est.end());  // unsorted input: the list is still in time order
+  const AteResult ate = computeAte(gt, est, 0.02);
+  ASSERT_EQ(ate.per_pose.size(), ate.matched);
+  std::vector<double> errors;
+  for (size_t k = 0; k < ate.per_pose.size(); ++k) {
+    const PoseError& e = ate.per_pose[k];
+    if (k > 0) {
+      EXPECT_GT(e.timestamp, ate.per_pose[k - 1].timestamp);
+    }
+    EXPECT_DOUBLE_EQ(e.timestamp, est[e.est_index].timestamp);
+    EXPECT_DOUBLE_EQ(gt[e.gt_index].timestamp, est[e.est_index].timestamp);
+    EXPECT_NEAR(e.error_m,
+                (gt[e.gt_index].T_w_c.translation() - ate.T_gt_est * est[e.est_index].T_w_c.translation()).norm(),
+                1e-12);
+    errors.push_back(e.error_m);
+  }
+  const ErrorStats again = summarize(errors);
+  EXPECT_DOUBLE_EQ(again.rmse, ate.translation_m.rmse);
+  EXPECT_GT(ate.translation_m.max - ate.translation_m.min, 0.01);  // the errors do differ
+}
+
 TEST(EvalAte, OnlyAssociatedPosesCount) {
   const Trajectory gt = curvedGroundTruth(3.0);
   Trajectory est = gt;
@@ -125,6 +154,14 @@ TEST(EvalRpe, ConstantTranslationDriftOfOneCentimetrePerSecond) {
   EXPECT_NEAR(rpe.translation_m.min, 0.01, 1e-6);
   EXPECT_NEAR(rpe.translation_m.max, 0.01, 1e-6);
   EXPECT_LT(rpe.rotation_deg.max, 1e-6);
+
+  ASSERT_EQ(rpe.per_pair.size(), rpe.pairs);
+  for (const RpePair& pair : rpe.per_pair) {
+    EXPECT_NEAR(pair.end_time - pair.start_time, 1.0, 0.5 / kRate);
+    EXPECT_NEAR(pair.translation_m, 0.01, 1e-6);
+    EXPECT_LT(pair.rotation_deg, 1e-6);
+  }
+  EXPECT_NEAR(rpe.per_pair.front().start_time, kT0, 1e-9);
 
   const RpeResult half = computeRpe(gt, est, 0.5, 0.02);
   EXPECT_NEAR(half.translation_m.rmse, 0.005, 1e-6);
