@@ -62,3 +62,11 @@ read -r tracked total < <(sed -n 's/^tracked \([0-9]*\) of \([0-9]*\) frames$/\1
 [ -n "${total:-}" ] && [ "$total" -gt 0 ] || fail "no 'tracked N of M frames' line"
 [ $((tracked * 100)) -ge $((total * 95)) ] || fail "tracked only $tracked of $total frames (< 95 %)"
 echo "OK: the consumer tracked $tracked of $total frames against the installed prefix"
+
+# The installed program finds the installed vocabulary too (bin/../share/desslam), from anywhere.
+(cd "$work" && env -u DESSLAM_SOURCE_DIR -u DESSLAM_DATA_DIR "$prefix/bin/desslam" run "$clip" \
+   --config "$prefix/share/desslam/config/tum_fr1.yaml" --out "$work/run" --max-frames 10 \
+   --dynamic geometric --set dense.enabled=false --set semantic.segmenter=none) > "$work/program.log" 2>&1 \
+  || { cat "$work/program.log"; fail "the installed bin/desslam could not run"; }
+[ -s "$work/run/CameraTrajectory.txt" ] || fail "the installed bin/desslam wrote no trajectory"
+echo "OK: the installed bin/desslam ran from $work"
