@@ -1,10 +1,17 @@
+# The install layout (CMAKE_INSTALL_LIBDIR, ...): src/core compiles in where share/desslam lies
+# relative to it, src/api and cmake/DesslamInstall.cmake install there.
+include(GNUInstallDirs)
+# install() rules that name no component belong to the runtime package (cmake/DesslamInstall.cmake).
+set(CMAKE_INSTALL_DEFAULT_COMPONENT_NAME runtime)
+
 # desslam_add_library(<stage> SOURCES ... [DEPS ...])
 #   builds desslam_<stage> from src/<stage>; public include root is src/ so headers are
-#   included as "<stage>/header.hpp".
+#   included as "<stage>/header.hpp". Internal: static (position-independent), linked into the
+#   shared desslam::desslam (src/api) and directly into the program and the tests; never installed.
 function(desslam_add_library stage)
   cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
   add_library(desslam_${stage} STATIC ${ARG_SOURCES})
-  target_include_directories(desslam_${stage} PUBLIC ${CMAKE_SOURCE_DIR}/src)
+  target_include_directories(desslam_${stage} PUBLIC $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/src>)
   target_link_libraries(desslam_${stage} PUBLIC ${ARG_DEPS})
 endfunction()
 
@@ -15,8 +22,8 @@ function(desslam_add_test name)
   cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main)
-  target_include_directories(${name} PRIVATE ${CMAKE_SOURCE_DIR}/tests)
-  set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
+  target_include_directories(${name} PRIVATE ${PROJECT_SOURCE_DIR}/tests)
+  set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${PROJECT_BINARY_DIR}/tests)
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 600)
   endif()
@@ -27,8 +34,8 @@ function(desslam_add_test name)
   endif()
   include(GoogleTest)
   gtest_discover_tests(${name}
-    WORKING_DIRECTORY ${CMAKE_SOURCE_DIR}
+    WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
     PROPERTIES TIMEOUT ${ARG_TIMEOUT} ${label_property}
-      ENVIRONMENT "DESSLAM_SHARED_DIR=${DESSLAM_SHARED_DIR};DESSLAM_SOURCE_DIR=${CMAKE_SOURCE_DIR}"
+      ENVIRONMENT "DESSLAM_SHARED_DIR=${DESSLAM_SHARED_DIR};DESSLAM_SOURCE_DIR=${PROJECT_SOURCE_DIR}"
     DISCOVERY_TIMEOUT 60)
 endfunction()

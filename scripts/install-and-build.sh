@@ -9,7 +9,7 @@ PACKAGES=(
   libeigen3-dev libopencv-dev libceres-dev libopen3d-dev liboctomap-dev
   libyaml-cpp-dev libcli11-dev libspdlog-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev libsqlite3-dev python3
-  libxnnpack-dev libpthreadpool-dev
+  libxnnpack-dev libpthreadpool-dev libssl-dev file
 )
 
 missing=()

@@ -34,12 +34,22 @@ struct SystemOptions;  // internal: every stage's options (src/core/options.hpp)
 // The library's version ("0.1.0").
 std::string version();
 
+// The folder of the data the library ships: <prefix>/share/desslam when installed (vocab/ with the
+// default vocabulary, config/ with the camera presets), found relative to the library itself; the
+// source tree when the library runs from its build tree; $DESSLAM_DATA_DIR first when set.
+// Throws listing the places looked at when none holds the default vocabulary.
+std::filesystem::path dataDirectory();
+
 // The options of a run: every stage's settings, from a YAML file (one section per stage, as in
 // config/*.yaml) and "section.key=value" assignments. Validated when a Slam is made from it.
 class Config {
  public:
   // Reads and validates a YAML file; throws naming the file and "section.key" at fault.
   static Config fromYaml(const std::filesystem::path& yaml);
+  // A camera preset shipped with the library, by name: "tum_fr1" reads config/tum_fr1.yaml of the
+  // data folders (see dataDirectory(); tum_fr1, tum_fr2, tum_fr3, bonn). Throws listing the places
+  // looked at and the presets found when there is none of that name.
+  static Config fromPreset(const std::string& name);
   // The same for a YAML document in memory; `name` stands for it in messages.
   static Config fromYamlString(const std::string& yaml, const std::string& name = "<config>");
 

@@ -3,9 +3,14 @@
 
 #include <opencv2/core.hpp>
 
+#include <algorithm>
+#include <system_error>
+
+#include "core/data_location.hpp"
 #include "core/error.hpp"
 #include "core/options.hpp"
 #include "io/config.hpp"
+#include "place/vocabulary_location.hpp"
 #include "system/slam_system.hpp"
 
 #ifndef DESSLAM_VERSION
@@ -15,6 +20,17 @@
 namespace desslam {
 
 std::string version() { return DESSLAM_VERSION; }
+
+std::filesystem::path dataDirectory() {
+  std::vector<std::filesystem::path> tried;
+  const std::filesystem::path vocabulary = place::resolveVocabularyPath("", &tried);
+  if (vocabulary.empty()) {
+    throw ConfigError("DeS-SLAM's data folder (share/desslam) not found: no default vocabulary at" +
+                      listPaths(tried) +
+                      "\nReinstall the library (cmake --install), or set DESSLAM_DATA_DIR to its share/desslam");
+  }
+  return vocabulary.parent_path().parent_path();  // <data>/vocab/<file>
+}
 
 // ---- Config ----
 
@@ -30,6 +46,32 @@ Config::~Config() = default;
 
 Config Config::fromYaml(const std::filesystem::path& yaml) {
   return Config(std::make_unique<SystemOptions>(io::loadConfig(yaml)));
+}
+
+Config Config::fromPreset(const std::string& name) {
+  if (name.empty() || name.find_first_of("/\\.") != std::string::npos) {
+    throw ConfigError("camera preset '" + name + "': give a preset name such as tum_fr1 (use Config::fromYaml for a file)");
+  }
+  const std::vector<std::filesystem::path> directories = dataDirectories();
+  std::vector<std::filesystem::path> tried;
+  const std::filesystem::path yaml = findDataFile(std::filesystem::path("config") / (name + ".yaml"), directories, &tried);
+  if (yaml.empty()) {
+    std::vector<std::string> presets;
+    for (const std::filesystem::path& directory : directories) {
+      std::error_code ec;
+      for (const auto& entry : std::filesystem::directory_iterator(directory / "config", ec)) {
+        if (entry.path().extension() == ".yaml") presets.push_back(entry.path().stem().string());
+      }
+    }
+    std::sort(presets.begin(), presets.end());
+    presets.erase(std::unique(presets.begin(), presets.end()), presets.end());
+    std::string known;
+    for (const std::string& preset : presets) known += (known.empty() ? "" : ", ") + preset;
+    throw ConfigError("camera preset '" + name + "' not found; looked at:" + listPaths(tried) +
+                      "\nPresets found: " + (known.empty() ? std::string("none") : known) +
+                      " (set DESSLAM_DATA_DIR to the installed share/desslam if it was moved)");
+  }
+  return fromYaml(yaml);
 }
 
 Config Config::fromYamlString(const std::string& yaml, const std::string& name) {

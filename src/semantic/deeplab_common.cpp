@@ -7,6 +7,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "core/data_location.hpp"
 #include "core/error.hpp"
 #include "semantic/sha256.hpp"
 
@@ -44,6 +45,8 @@ fs::path resolveModelPath(const SemanticOptions& options, std::vector<fs::path>*
     candidates.push_back(fs::path("..") / "shared" / "models" / kDeepLabModelFile);
     if (const fs::path exe_dir = executableDir(); !exe_dir.empty())
       candidates.push_back(exe_dir / ".." / ".." / "shared" / "models" / kDeepLabModelFile);
+    // models/ in the data folders: where an installed library's user can put the model.
+    for (const fs::path& data_dir : dataDirectories()) candidates.push_back(data_dir / "models" / kDeepLabModelFile);
   }
   if (tried != nullptr) *tried = candidates;
   for (const auto& candidate : candidates) {

@@ -25,7 +25,8 @@ inline constexpr int kVocPerson = 15;
 //   1. options.model_path when set (only there);
 //   2. $DESSLAM_SHARED_DIR/models/<file>;
 //   3. ../shared/models/<file> relative to the working directory;
-//   4. <executable dir>/../../shared/models/<file>.
+//   4. <executable dir>/../../shared/models/<file>;
+//   5. models/<file> in the data folders (core/data_location.hpp, e.g. <prefix>/share/desslam).
 // Returns the first that exists, or an empty path; `tried` (if given) receives every candidate.
 std::filesystem::path resolveModelPath(const SemanticOptions& options,
                                        std::vector<std::filesystem::path>* tried = nullptr);

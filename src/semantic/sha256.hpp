@@ -1,11 +1,10 @@
-// SHA-256 (FIPS 180-4), used to check that the segmentation model on disk is the expected one.
-// Small and dependency-free on purpose: the project links no crypto library.
+// SHA-256, used to check that the segmentation model on disk is the expected one: OpenSSL's
+// libcrypto (EVP interface, Debian libssl-dev) behind a small interface of the project's own.
 #pragma once
 
-#include <array>
 #include <cstddef>
-#include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <string_view>
 
@@ -15,18 +14,17 @@ namespace desslam::semantic {
 class Sha256 {
  public:
   Sha256();
+  ~Sha256();
+  Sha256(const Sha256&) = delete;
+  Sha256& operator=(const Sha256&) = delete;
   void update(const void* data, std::size_t size);
   void update(std::string_view data) { update(data.data(), data.size()); }
   // Lower-case hex of the 32-byte digest. Finishes the hash; the object must not be updated after.
   std::string hexDigest();
 
  private:
-  void processBlock(const std::uint8_t* block);
-
-  std::array<std::uint32_t, 8> state_;
-  std::array<std::uint8_t, 64> buffer_{};
-  std::size_t buffered_ = 0;
-  std::uint64_t total_bytes_ = 0;
+  struct Context;  // OpenSSL's EVP_MD_CTX, kept out of this header
+  std::unique_ptr<Context> context_;
 };
 
 std::string sha256Hex(std::string_view data);

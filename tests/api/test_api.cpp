@@ -153,5 +153,22 @@ TEST(Api, ConfigAssignmentsAreCheckedAndValidated) {
   EXPECT_FALSE(version().empty());
 }
 
+TEST(Api, CameraPresetsAndTheDataFolderAreFoundByName) {
+  const std::filesystem::path data = dataDirectory();
+  EXPECT_TRUE(std::filesystem::is_directory(data / "config")) << data;
+  const Config fr1 = Config::fromPreset("tum_fr1");
+  EXPECT_EQ(fr1.options().camera.width, 640);
+  EXPECT_GT(fr1.options().camera.fx, 500.0);
+  try {
+    Config::fromPreset("tum_fr9");
+    FAIL() << "an unknown preset was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_CONTAINS(e.what(), "tum_fr9");
+    EXPECT_CONTAINS(e.what(), (data / "config" / "tum_fr9.yaml").string());  // a place looked at
+    EXPECT_CONTAINS(e.what(), "tum_fr1, tum_fr2");                             // the presets there
+  }
+  EXPECT_THROW(Config::fromPreset("config/tum_fr1.yaml"), std::runtime_error);  // a path, not a name
+}
+
 }  // namespace
 }  // namespace desslam
