@@ -103,6 +103,37 @@ TEST_F(ApiTest, RawSixteenBitDepthIsScaledByTheDepthFactor) {
     EXPECT_LT((raw.trajectory[i].T_w_c - metres.trajectory[i].T_w_c).cwiseAbs().maxCoeff(), 1e-9) << "frame " << i;
 }
 
+// The caller may overwrite its images once track() returns (a driver's buffer, a numpy array that
+// Python frees): the pipeline keeps depth images of earlier frames for its depth checks, and must
+// not see them change. Each frame goes through one reused buffer per image, wiped after track().
+TEST_F(ApiTest, CallerMayReuseItsImageBuffers) {
+  const io::TumSequence sequence = io::TumSequence::open(dir_->path());
+  const ApiRun fresh = trackThroughApi(sequence, /*raw_depth=*/false);
+  for (const bool raw_depth : {false, true}) {
+    const Config config = syntheticConfig();
+    Slam slam(config, {.deterministic = true});
+    cv::Mat bgr, depth;  // the same memory every frame
+    for (size_t i = 0; i < sequence.size(); ++i) {
+      const io::RgbdImage image = sequence.load(i, config.options().camera);
+      image.bgr.copyTo(bgr);
+      if (raw_depth)
+        cv::imread(sequence.record(i).depth_path.string(), cv::IMREAD_UNCHANGED).copyTo(depth);
+      else
+        image.depth.copyTo(depth);
+      slam.track(image.timestamp, bgr, depth, 0, sequence.record(i).rgb_path.filename().string());
+      bgr.setTo(cv::Scalar::all(0));
+      depth.setTo(cv::Scalar::all(0));
+    }
+    slam.finish();
+    const std::vector<FramePose> reused = slam.trajectory();
+    ASSERT_EQ(reused.size(), fresh.trajectory.size()) << (raw_depth ? "16-bit depth" : "metres");
+    for (size_t i = 0; i < reused.size(); ++i) {
+      EXPECT_LT((reused[i].T_w_c - fresh.trajectory[i].T_w_c).cwiseAbs().maxCoeff(), 1e-9)
+          << (raw_depth ? "16-bit depth" : "metres") << ", frame " << i;
+    }
+  }
+}
+
 TEST(Api, ImagesOfTheWrongTypeOrSizeAreRejectedWithTheReason) {
   Slam slam(syntheticConfig(), {.deterministic = true});
   const CameraOptions& camera = slam.config().options().camera;
