@@ -123,7 +123,6 @@ struct Slam::Impl {
       : config(config), system((config.validate(), config.options()), toSettings(mode)) {}
   Config config;
   system::SlamSystem system;
-  cv::Mat depth_m;  // CV_16U input converted to metres (reused)
 };
 
 Slam::Slam(const Config& config, const RunMode& mode) : impl_(std::make_unique<Impl>(config, mode)) {}
@@ -148,18 +147,22 @@ TrackResult Slam::track(double timestamp_s, const cv::Mat& bgr, const cv::Mat& d
     throw InputError("Slam::track: the colour image is " + size_text(bgr) + " but camera.width/height say " + expected);
   if (depth.cols != camera.width || depth.rows != camera.height)
     throw InputError("Slam::track: the depth image is " + size_text(depth) + " but camera.width/height say " + expected);
-  const cv::Mat* depth_m = &depth;
+  // The pipeline keeps each frame's depth image (later frames' depth checks read the last frame's
+  // and the reference keyframe's), so it gets a buffer of its own: the caller may reuse or free
+  // its image once track() returns (a numpy array, a driver's buffer, a cv::Mat over user memory).
+  cv::Mat depth_m;
   if (depth.type() == CV_16UC1) {
-    depth.convertTo(impl_->depth_m, CV_32F, 1.0 / camera.depth_factor);
-    depth_m = &impl_->depth_m;
-  } else if (depth.type() != CV_32FC1) {
+    depth.convertTo(depth_m, CV_32F, 1.0 / camera.depth_factor);
+  } else if (depth.type() == CV_32FC1) {
+    depth_m = depth.clone();
+  } else {
     throw InputError("Slam::track: the depth image must be CV_32FC1 (metres) or CV_16UC1 (raw units, divided by "
                      "camera.depth_factor)");
   }
   system::SlamSystem& system = impl_->system;
   const std::string name =
       image_name.empty() ? std::to_string(system.framesProcessed()) + ".png" : image_name;
-  system.processFrame(timestamp_s, bgr, *depth_m, name, depth_time_offset_s);
+  system.processFrame(timestamp_s, bgr, depth_m, name, depth_time_offset_s);
 
   const system::FrameStats& stats = system.frameStats().back();
   TrackResult result;

@@ -1,5 +1,7 @@
 // desslam::Slam and desslam::Config (the public API) on the synthetic room: the same trajectory
 // as the internal pipeline in deterministic mode, per-frame poses, 16-bit depth, and clear errors.
+#include <algorithm>
+
 #include <opencv2/imgcodecs.hpp>
 
 #include <gtest/gtest.h>
@@ -101,6 +103,53 @@ TEST_F(ApiTest, RawSixteenBitDepthIsScaledByTheDepthFactor) {
   ASSERT_EQ(raw.trajectory.size(), metres.trajectory.size());
   for (size_t i = 0; i < raw.trajectory.size(); ++i)
     EXPECT_LT((raw.trajectory[i].T_w_c - metres.trajectory[i].T_w_c).cwiseAbs().maxCoeff(), 1e-9) << "frame " << i;
+}
+
+// The caller may overwrite its images once track() returns (a driver's buffer, a numpy array that
+// Python frees): the pipeline keeps earlier frames' depth images (the free-space check reads the
+// reference keyframe's), and must not see them change. Full dynamic mode with the sim's masks (the
+// room is static: empty masks) so that the free-space check runs; each frame goes through one
+// reused buffer per image, wiped after track().
+TEST(Api, CallerMayReuseItsImageBuffers) {
+  test::TempDir dir;
+  const CameraOptions camera = sim::syntheticCamera();
+  sim::writeSequence(dir.path(), sim::SyntheticScene(sim::SceneOptions{}, camera), sim::sweepPath(kFrames, camera.fps),
+                     camera, /*write_masks=*/true);
+  const io::TumSequence sequence = io::TumSequence::open(dir.path());
+  Config config = syntheticConfig();
+  config.set("semantic.segmenter=mask_dir").set("semantic.mask_dir", (dir.path() / "masks").string());
+  config.set("dynamic.mode=full");
+  const auto run = [&](bool reuse, bool raw_depth) {
+    Slam slam(config, {.deterministic = true});
+    cv::Mat bgr, depth;  // with `reuse`: the same memory every frame
+    for (size_t i = 0; i < sequence.size(); ++i) {
+      const io::RgbdImage image = sequence.load(i, config.options().camera);
+      const cv::Mat raw = cv::imread(sequence.record(i).depth_path.string(), cv::IMREAD_UNCHANGED);
+      if (!reuse) {  // fresh buffers
+        bgr.release();
+        depth.release();
+      }
+      image.bgr.copyTo(bgr);
+      (raw_depth ? raw : image.depth).copyTo(depth);
+      slam.track(image.timestamp, bgr, depth, 0, sequence.record(i).rgb_path.filename().string());
+      if (reuse) {  // the caller writes over its buffers
+        bgr.setTo(cv::Scalar::all(0));
+        depth.setTo(cv::Scalar::all(0));
+      }
+    }
+    slam.finish();
+    return slam.trajectory();
+  };
+  const std::vector<FramePose> fresh = run(/*reuse=*/false, /*raw_depth=*/false);
+  ASSERT_GE(fresh.size(), static_cast<size_t>(0.95 * kFrames));
+  for (const bool raw_depth : {false, true}) {
+    const std::vector<FramePose> reused = run(/*reuse=*/true, raw_depth);
+    ASSERT_EQ(reused.size(), fresh.size()) << (raw_depth ? "16-bit depth" : "metres");
+    double worst = 0;
+    for (size_t i = 0; i < reused.size(); ++i)
+      worst = std::max(worst, (reused[i].T_w_c - fresh[i].T_w_c).cwiseAbs().maxCoeff());
+    EXPECT_LT(worst, 1e-9) << (raw_depth ? "16-bit depth" : "metres") << ": reused buffers changed the trajectory";
+  }
 }
 
 TEST(Api, ImagesOfTheWrongTypeOrSizeAreRejectedWithTheReason) {
