@@ -10,6 +10,7 @@ PACKAGES=(
   libyaml-cpp-dev libcli11-dev libspdlog-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev libsqlite3-dev python3
   libxnnpack-dev libpthreadpool-dev
+  librosbag-storage-dev libroscpp-core-dev
 )
 
 missing=()
