@@ -276,11 +276,12 @@ io::InputCalibration BagSequence::calibration() const {
   try {
     const std::lock_guard lock(impl_->read_mutex);
     rosbag::View view(impl_->bag, rosbag::TopicQuery(topic));
-    if (view.begin() == view.end())
+    // The iterator owns the MessageInstance it yields: keep it while reading.
+    const rosbag::View::iterator first = view.begin();
+    if (first == view.end())
       throw InputError("topic " + topic + " of ROS bag " + quoted(impl_->file) + " has no messages");
-    const rosbag::MessageInstance& first = *view.begin();
-    record_time = first.getTime().toSec();
-    bytes = readBytes(first);
+    record_time = first->getTime().toSec();
+    bytes = readBytes(*first);
   } catch (const rosbag::BagException& e) {
     throw InputError("cannot read " + topic + " from ROS bag " + quoted(impl_->file) + ": " + e.what());
   }
