@@ -1,7 +1,7 @@
-// `desslam run <sequence-dir> --config <yaml> --out <dir>`: runs the SLAM system over a TUM-layout
-// sequence and writes CameraTrajectory.txt, CameraTrajectory_all.txt, KeyFrameTrajectory.txt,
-// report.json and the dense map. Every file is written atomically (core/atomic_file.hpp); the
-// trajectory is also saved every few hundred frames.
+// `desslam run <sequence-dir | file.bag> --config <yaml> --out <dir>`: runs the SLAM system over a
+// TUM-layout sequence or a ROS 1 bag (bag/open_sequence.hpp) and writes CameraTrajectory.txt,
+// CameraTrajectory_all.txt, KeyFrameTrajectory.txt, report.json and the dense map. Every file is
+// written atomically (core/atomic_file.hpp); the trajectory is also saved every few hundred frames.
 //
 // SIGINT, SIGTERM and SIGHUP, from the start of the run to its last output: the first stops the
 // frame loop at the next frame and the run ends as a normal one does (mapping drains, the final
@@ -33,6 +33,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "bag/open_sequence.hpp"
 #include "commands.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
@@ -40,7 +41,6 @@
 #include "eval/evaluation.hpp"
 #include "io/config.hpp"
 #include "io/trajectory_io.hpp"
-#include "io/tum_dataset.hpp"
 #include "plausibility/sequence_check.hpp"
 #include "report/run_plots.hpp"
 #include "system/slam_system.hpp"
@@ -300,14 +300,34 @@ std::string nothingTrackedMessage(const system::SlamSystem& slam, const SystemOp
 int runSequence(const RunArgs& args) {
   const StopSignals stop_signals;  // from here to the last output
   const std::optional<SkippedFrames> skipped = parseSkipFrames(args.skip_frames);
-  SystemOptions options = io::loadConfig(args.config);
+  io::ConfigForInput config = io::loadConfigForInput(args.config);
+  SystemOptions& options = config.options;
   for (const std::string& assignment : args.overrides) io::applyOverride(options, assignment);
   if (!args.dynamic_mode.empty()) options.dynamic.mode = args.dynamic_mode;
-  options.validate();
+  // Intrinsics from the input (a bag's camera_info) only when neither the config nor --set gives them.
+  const CameraOptions& given = options.camera;
+  const bool intrinsics_from_input =
+      !config.intrinsics_given && given.fx == 0 && given.fy == 0 && given.cx == 0 && given.cy == 0;
+  if (!intrinsics_from_input) options.validate();
+
+  const std::unique_ptr<io::RgbdSequence> opened = bag::openSequence(args.sequence, options.bag);
+  const io::RgbdSequence& sequence = *opened;
+  std::string intrinsics_source = "config";
+  if (intrinsics_from_input) {
+    io::InputCalibration calibration;
+    try {
+      calibration = sequence.calibration();
+    } catch (const InputError& e) {
+      throw ConfigError("config " + args.config + " has no camera intrinsics (camera.fx, fy, cx, cy), and the input "
+                        "cannot give them: " + e.what());
+    }
+    io::useInputCalibration(options.camera, calibration);
+    intrinsics_source = calibration.source;
+    std::fprintf(stderr, "camera intrinsics from %s (the config has none)\n", intrinsics_source.c_str());
+    options.validate();
+  }
   // OpenCV's thread pool is process-wide; it mostly serves the network (DeepLab).
   cv::setNumThreads(options.semantic.threads);
-
-  const io::TumSequence sequence = io::TumSequence::open(args.sequence);
   const std::filesystem::path out_dir(args.out);
   const size_t frame_count = args.max_frames > 0 ? std::min(args.max_frames, sequence.size()) : sequence.size();
   if (skipped && skipped->first >= frame_count)
@@ -362,15 +382,14 @@ int runSequence(const RunArgs& args) {
       io::RgbdImage image = sequence.load(i, options.camera);
       if (args.realtime) {
         // Frames arrive at the sensor's rate: wait for this frame's time, never skip one.
-        const double due_s = sequence.record(i).rgb_timestamp - sequence.record(0).rgb_timestamp;
+        const double due_s = sequence.rgbTimestamp(i) - sequence.rgbTimestamp(0);
         const double now_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         if (due_s > now_s) std::this_thread::sleep_for(std::chrono::duration<double>(due_s - now_s));
         lag_ms.push_back(std::max(0.0, now_s - due_s) * 1000.0);
       }
-      const io::RgbdFrameRecord& record = sequence.record(i);
       input_index.push_back(i);
-      slam.processFrame(image.timestamp, image.bgr, image.depth, record.rgb_path.filename().string(),
-                        record.depth_timestamp - record.rgb_timestamp);
+      slam.processFrame(image.timestamp, image.bgr, image.depth, sequence.frameName(i),
+                        sequence.depthTimestamp(i) - sequence.rgbTimestamp(i));
       next_frame = i + 1;
 
       if ((i + 1) % kCheckpointEvery == 0)
@@ -414,6 +433,7 @@ int runSequence(const RunArgs& args) {
   report["config"] = args.config;
   report["overrides"] = args.overrides;
   report["settings"] = io::optionsToJson(options);
+  report["settings"]["camera_intrinsics_from"] = intrinsics_source;
   report["settings"]["skip_frames"] =
       skipped ? nlohmann::json{{"first", skipped->first}, {"last", skipped->last}} : nlohmann::json(nullptr);
   report["settings"]["emulated_mask_latency"] =
@@ -445,7 +465,7 @@ int runSequence(const RunArgs& args) {
       report["rpe"] = eval::toJson(rpe);
       // Share of frames (associated with ground truth) that got a pose.
       std::vector<StampedPose> frames;
-      for (size_t i : input_index) frames.push_back({sequence.record(i).rgb_timestamp, SE3()});
+      for (size_t i : input_index) frames.push_back({sequence.rgbTimestamp(i), SE3()});
       const size_t associated = eval::associate(*sequence.groundTruth(), frames).size();
       // Main map (what the ATE is over) and any map of the atlas.
       report["tracked_share_of_associated_frames"] =
@@ -527,8 +547,11 @@ int runSequence(const RunArgs& args) {
 
 void registerRunCommand(CLI::App& app) {
   auto args = std::make_shared<RunArgs>();
-  CLI::App* cmd = app.add_subcommand("run", "Run SLAM on an RGB-D sequence in TUM layout (rgb.txt, depth.txt, ...)");
-  cmd->add_option("sequence", args->sequence, "Sequence folder (rgb/, depth/, rgb.txt, depth.txt[, groundtruth.txt])")
+  CLI::App* cmd = app.add_subcommand("run", "Run SLAM on an RGB-D sequence in TUM layout (rgb.txt, depth.txt, ...) or "
+                                            "a ROS 1 bag");
+  cmd->add_option("sequence", args->sequence,
+                  "Sequence folder (rgb/, depth/, rgb.txt, depth.txt[, groundtruth.txt]) or ROS 1 bag (.bag; topics: "
+                  "config section bag)")
       ->required();
   cmd->add_option("--config,-c", args->config, "Camera/system YAML, e.g. config/tum_fr1.yaml")->required();
   cmd->add_option("--out,-o", args->out, "Output folder")->capture_default_str();

@@ -11,6 +11,7 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev libsqlite3-dev python3
   libxnnpack-dev libpthreadpool-dev libssl-dev file
   pybind11-dev python3-dev python3-numpy python3-pytest
+  librosbag-storage-dev libroscpp-core-dev
 )
 
 missing=()

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <sstream>
+#include <utility>
 
 namespace desslam {
 
@@ -205,6 +206,17 @@ void PlausibilityOptions::validate() const {
   requireInRange(s, "max_median_depth_m", max_median_depth_m, min_median_depth_m, 1000.0);
 }
 
+void BagOptions::validate() const {
+  const char* s = kSection;
+  for (const auto& [key, topic] : {std::pair<const char*, const std::string&>{"rgb_topic", rgb_topic},
+                                   {"depth_topic", depth_topic}, {"camera_info_topic", camera_info_topic}}) {
+    const bool name_ok = topic.size() > 1 && topic.front() == '/' &&
+                         topic.find_first_of(" \t\r\n") == std::string::npos;
+    requireThat(name_ok, s, key,
+                "must be a full ROS topic name as a bag stores it, e.g. /camera/rgb/image_color, got '" + topic + "'");
+  }
+}
+
 void SystemOptions::validate() const {
   camera.validate();
   orb.validate();
@@ -217,6 +229,7 @@ void SystemOptions::validate() const {
   loop.validate();
   atlas.validate();
   plausibility.validate();
+  bag.validate();
 }
 
 }  // namespace desslam

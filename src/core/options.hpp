@@ -431,6 +431,21 @@ struct PlausibilityOptions {
   void validate() const;
 };
 
+// ROS 1 bag input (`desslam run <file.bag>`, src/bag): the topics read. A section of the config
+// rather than run flags because the topics belong to the recording set-up, like the camera preset
+// beside them, and so land in report.json's settings with everything else. Defaults: TUM RGB-D's.
+struct BagOptions {
+  std::string rgb_topic = "/camera/rgb/image_color";          // sensor_msgs/Image rgb8 or bgr8
+  std::string depth_topic = "/camera/depth/image";            // sensor_msgs/Image 32FC1 m or 16UC1 mm
+  std::string camera_info_topic = "/camera/rgb/camera_info";  // sensor_msgs/CameraInfo (intrinsics)
+
+  static constexpr const char* kSection = "bag";
+  template <class V> void fields(V& v) {
+    v("rgb_topic", rgb_topic); v("depth_topic", depth_topic); v("camera_info_topic", camera_info_topic);
+  }
+  void validate() const;
+};
+
 // Everything a run is configured with (one YAML file, one section per struct).
 struct SystemOptions {
   CameraOptions camera;
@@ -444,10 +459,11 @@ struct SystemOptions {
   RelocalisationOptions relocalisation;
   AtlasOptions atlas;
   PlausibilityOptions plausibility;
+  BagOptions bag;
 
   template <class F> void sections(F&& f) {
     f(camera); f(orb); f(tracking); f(mapping); f(dynamic); f(semantic); f(dense); f(loop); f(relocalisation); f(atlas);
-    f(plausibility);
+    f(plausibility); f(bag);
   }
   void validate() const;
 };

@@ -212,9 +212,7 @@ void readSystem(const YAML::Node& root, SystemOptions& options, const Origin& or
   });
 }
 
-}  // namespace
-
-SystemOptions loadConfig(const std::filesystem::path& yaml) {
+std::string readConfigFile(const std::filesystem::path& yaml) {
   const std::string file = yaml.string();
   if (!std::filesystem::is_regular_file(yaml))
     throw ConfigError("config file '" + file + "' does not exist: pass a YAML file such as config/tum_fr1.yaml");
@@ -222,10 +220,11 @@ SystemOptions loadConfig(const std::filesystem::path& yaml) {
   if (!in) throw ConfigError("cannot read config file '" + file + "': check permissions");
   std::ostringstream text;
   text << in.rdbuf();
-  return loadConfigFromString(text.str(), file);
+  return text.str();
 }
 
-SystemOptions loadConfigFromString(const std::string& text, const std::string& file) {
+// loadConfigFromString and loadConfigForInput: `intrinsics_given` null means they are required.
+SystemOptions loadConfigText(const std::string& text, const std::string& file, bool* intrinsics_given) {
   YAML::Node root;
   try {
     root = YAML::Load(text);
@@ -241,19 +240,69 @@ SystemOptions loadConfigFromString(const std::string& text, const std::string& f
     throw ConfigError(file + ": missing the required 'camera:' section (fx, fy, cx, cy, width, height, distortion, "
                              "depth_factor, fps): start from a preset in config/");
   const YAML::Node camera = root["camera"];
-  for (const char* key : {"fx", "fy", "cx", "cy"})
-    if (!camera.IsMap() || !camera[key].IsDefined())
-      throw ConfigError(origin.at(camera) + ": missing config key camera." + key +
-                        ": the intrinsics fx, fy, cx, cy have no default (see config/ presets)");
+  constexpr const char* kIntrinsics[] = {"fx", "fy", "cx", "cy"};
+  const bool none_given = camera.IsMap() && std::none_of(std::begin(kIntrinsics), std::end(kIntrinsics),
+                                                         [&](const char* key) { return camera[key].IsDefined(); });
+  const bool from_input = intrinsics_given != nullptr && none_given;
+  if (!from_input) {
+    for (const char* key : kIntrinsics)
+      if (!camera.IsMap() || !camera[key].IsDefined())
+        throw ConfigError(origin.at(camera) + ": missing config key camera." + key +
+                          ": the intrinsics fx, fy, cx, cy have no default (see config/ presets)" +
+                          (intrinsics_given != nullptr ? "; leave out all four to take them from a ROS bag's "
+                                                         "camera_info"
+                                                       : ""));
+  } else {
+    // The camera's geometry comes from one place: the config or the input, never half of each.
+    for (const char* key : {"width", "height", "distortion"})
+      if (camera[key].IsDefined())
+        throw ConfigError(origin.at(camera[key]) + ": config key camera." + key +
+                          " is given but camera.fx, fy, cx, cy are not: give them all, or leave out all of fx, fy, "
+                          "cx, cy, width, height and distortion to take them from the input's camera_info");
+  }
+  if (intrinsics_given != nullptr) *intrinsics_given = !from_input;
 
   SystemOptions options;
   readSystem(root, options, origin);
   try {
-    options.validate();
+    if (from_input) {
+      // Everything but the camera, which the caller completes from the input and validates.
+      options.sections([](auto& section) {
+        if constexpr (!std::is_same_v<std::decay_t<decltype(section)>, CameraOptions>) section.validate();
+      });
+    } else {
+      options.validate();
+    }
   } catch (const ConfigError& e) {
     throw ConfigError(file + ": " + e.what());
   }
   return options;
+}
+
+}  // namespace
+
+SystemOptions loadConfig(const std::filesystem::path& yaml) {
+  return loadConfigFromString(readConfigFile(yaml), yaml.string());
+}
+
+SystemOptions loadConfigFromString(const std::string& text, const std::string& file) {
+  return loadConfigText(text, file, nullptr);
+}
+
+ConfigForInput loadConfigForInput(const std::filesystem::path& yaml) {
+  ConfigForInput config;
+  config.options = loadConfigText(readConfigFile(yaml), yaml.string(), &config.intrinsics_given);
+  return config;
+}
+
+void useInputCalibration(CameraOptions& camera, const InputCalibration& calibration) {
+  camera.fx = calibration.fx;
+  camera.fy = calibration.fy;
+  camera.cx = calibration.cx;
+  camera.cy = calibration.cy;
+  camera.width = calibration.width;
+  camera.height = calibration.height;
+  camera.distortion = calibration.distortion;
 }
 
 void applyOverride(SystemOptions& options, const std::string& assignment) {

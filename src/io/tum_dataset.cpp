@@ -168,48 +168,27 @@ TumSequence TumSequence::open(const fs::path& dir, double max_dt) {
   TumSequence seq;
   seq.directory_ = dir;
   const auto rgb = dropMissing(readImageList(dir, "rgb.txt", seq.warnings_), dir / "rgb.txt", seq.warnings_);
-  auto depth = dropMissing(readImageList(dir, "depth.txt", seq.warnings_), dir / "depth.txt", seq.warnings_);
+  const auto depth = dropMissing(readImageList(dir, "depth.txt", seq.warnings_), dir / "depth.txt", seq.warnings_);
 
-  // Association as TUM's associate.py: every candidate pair within max_dt, taken greedily in order
-  // of increasing |dt| so each RGB and each depth frame is used at most once. Depth is sorted so
-  // that only the window around each RGB timestamp is scanned.
-  std::sort(depth.begin(), depth.end(), [](const ListEntry& a, const ListEntry& b) { return a.timestamp < b.timestamp; });
-  constexpr double kDecimalSlack = 1e-9;  // "within 0.02 s" holds for 1.00 vs 1.02 despite rounding
-  const double limit = max_dt + kDecimalSlack;
-  struct Candidate {
-    double abs_dt;
-    std::size_t rgb, depth;
-  };
-  std::vector<Candidate> candidates;
-  for (std::size_t i = 0; i < rgb.size(); ++i) {
-    const double t = rgb[i].timestamp;
-    auto it = std::lower_bound(depth.begin(), depth.end(), t - limit,
-                               [](const ListEntry& e, double v) { return e.timestamp < v; });
-    for (; it != depth.end() && it->timestamp <= t + limit; ++it)
-      candidates.push_back({std::abs(it->timestamp - t), i, static_cast<std::size_t>(it - depth.begin())});
-  }
-  std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
-    return std::tie(a.abs_dt, a.rgb, a.depth) < std::tie(b.abs_dt, b.rgb, b.depth);
-  });
-  std::vector<bool> rgb_used(rgb.size(), false), depth_used(depth.size(), false);
-  for (const auto& c : candidates) {
-    if (rgb_used[c.rgb] || depth_used[c.depth]) continue;
-    rgb_used[c.rgb] = depth_used[c.depth] = true;
-    seq.records_.push_back({rgb[c.rgb].timestamp, depth[c.depth].timestamp, rgb[c.rgb].path, depth[c.depth].path});
-  }
+  // Association as TUM's associate.py (io::associateByTime).
+  std::vector<Timestamp> rgb_stamps, depth_stamps;
+  for (const ListEntry& e : rgb) rgb_stamps.push_back(e.timestamp);
+  for (const ListEntry& e : depth) depth_stamps.push_back(e.timestamp);
+  for (const StreamPair& pair : associateByTime(rgb_stamps, depth_stamps, max_dt))
+    seq.records_.push_back(
+        {rgb[pair.rgb].timestamp, depth[pair.depth].timestamp, rgb[pair.rgb].path, depth[pair.depth].path});
   if (seq.records_.empty()) {
-    const auto [rgb_min, rgb_max] = std::minmax_element(
-        rgb.begin(), rgb.end(), [](const ListEntry& a, const ListEntry& b) { return a.timestamp < b.timestamp; });
+    const auto earlier = [](const ListEntry& a, const ListEntry& b) { return a.timestamp < b.timestamp; };
+    const auto [rgb_min, rgb_max] = std::minmax_element(rgb.begin(), rgb.end(), earlier);
+    const auto [depth_min, depth_max] = std::minmax_element(depth.begin(), depth.end(), earlier);
     std::ostringstream msg;
     msg.precision(6);
     msg << std::fixed << "timestamps do not match: no RGB frame in " << (dir / "rgb.txt").string()
         << " has a depth frame in " << (dir / "depth.txt").string() << " within " << max_dt << " s (rgb "
-        << rgb_min->timestamp << ".." << rgb_max->timestamp << ", depth " << depth.front().timestamp << ".."
-        << depth.back().timestamp << "): check that both lists come from the same recording";
+        << rgb_min->timestamp << ".." << rgb_max->timestamp << ", depth " << depth_min->timestamp << ".."
+        << depth_max->timestamp << "): check that both lists come from the same recording";
     throw InputError(msg.str());
   }
-  std::sort(seq.records_.begin(), seq.records_.end(),
-            [](const RgbdFrameRecord& a, const RgbdFrameRecord& b) { return a.rgb_timestamp < b.rgb_timestamp; });
 
   const std::size_t unpaired_rgb = rgb.size() - seq.records_.size();
   if (unpaired_rgb > 0)
@@ -219,28 +198,16 @@ TumSequence TumSequence::open(const fs::path& dir, double max_dt) {
   // Ground truth is optional for a run (ATE/RPE, the depth-scale check): a problem with it is a
   // warning here; commands that need it throw groundTruthProblem().
   if (const fs::path gt = dir / "groundtruth.txt"; fs::is_regular_file(gt)) {
-    std::vector<std::string> gt_warnings;
-    try {
-      Trajectory trajectory = readTumTrajectory(gt, &gt_warnings);
-      if (trajectory.empty())
-        seq.ground_truth_problem_ = gt.string() + " holds no poses";
-      else
-        seq.ground_truth_ = std::move(trajectory);
-    } catch (const InputError& e) {
-      seq.ground_truth_problem_ = e.what();
-    }
-    for (std::string& w : gt_warnings) {
-      spdlog::warn("{}", w);
-      seq.warnings_.push_back(std::move(w));
-    }
-    if (!seq.ground_truth_problem_.empty()) {
-      std::string msg = "ignoring the ground truth: " + seq.ground_truth_problem_ +
-                        " (the run goes on without ATE/RPE and without the depth-scale check against it)";
-      spdlog::warn("{}", msg);
-      seq.warnings_.push_back(std::move(msg));
-    }
+    OptionalGroundTruth read = readOptionalGroundTruth(gt, seq.warnings_);
+    seq.ground_truth_ = std::move(read.trajectory);
+    seq.ground_truth_problem_ = std::move(read.problem);
   }
   return seq;
+}
+
+InputCalibration TumSequence::calibration() const {
+  throw InputError(description() + " carries no camera calibration: give camera.fx, fy, cx and cy in the config "
+                   "(see the presets in config/)");
 }
 
 RgbdImage TumSequence::load(std::size_t i, const CameraOptions& camera) const {

@@ -1,6 +1,7 @@
 // RGB-D sequences in the TUM layout (TUM RGB-D, Bonn RGB-D Dynamic): rgb/, depth/, rgb.txt and
 // depth.txt ("timestamp filename" per line, '#' comments), optional groundtruth.txt.
-// RGB and depth are separate streams with their own clocks; frames are paired by timestamp.
+// RGB and depth are separate streams with their own clocks; frames are paired by timestamp
+// (io::associateByTime).
 #pragma once
 
 #include <cstddef>
@@ -15,6 +16,7 @@
 #include "core/options.hpp"
 #include "core/trajectory.hpp"
 #include "core/types.hpp"
+#include "io/rgbd_sequence.hpp"
 
 namespace desslam::io {
 
@@ -26,14 +28,7 @@ struct RgbdFrameRecord {
   std::filesystem::path depth_path;
 };
 
-// A loaded pair.
-struct RgbdImage {
-  Timestamp timestamp = 0;  // the RGB timestamp
-  cv::Mat bgr;              // CV_8UC3
-  cv::Mat depth;            // CV_32F metres (raw / depth_factor), 0 = no reading
-};
-
-class TumSequence {
+class TumSequence : public RgbdSequence {
  public:
   // Reads rgb.txt/depth.txt (and groundtruth.txt if present); pairs each RGB with the nearest depth
   // within max_dt (as TUM's associate.py: greedy by smallest |dt|, one-to-one), sorted by time.
@@ -42,23 +37,29 @@ class TumSequence {
   // malformed line, empty list, no pairs within max_dt ("timestamps do not match: ...").
   static TumSequence open(const std::filesystem::path& dir, double max_dt = 0.02);
 
-  std::size_t size() const { return records_.size(); }
+  std::size_t size() const override { return records_.size(); }
   const RgbdFrameRecord& record(std::size_t i) const { return records_.at(i); }
+  Timestamp rgbTimestamp(std::size_t i) const override { return record(i).rgb_timestamp; }
+  Timestamp depthTimestamp(std::size_t i) const override { return record(i).depth_timestamp; }
+  std::string frameName(std::size_t i) const override { return record(i).rgb_path.filename().string(); }
+  std::string description() const override { return "TUM folder '" + directory_.string() + "'"; }
+  // A TUM folder carries no calibration: throws InputError (the config must give the intrinsics).
+  InputCalibration calibration() const override;
   const std::vector<RgbdFrameRecord>& records() const { return records_; }
   const std::filesystem::path& directory() const { return directory_; }
 
   // Loads frame i. Throws InputError naming the file: unreadable/corrupt PNG, depth not 16-bit
   // single channel, size differs from camera width/height, RGB not 8-bit 3-channel.
   // Depth is converted to metres with camera.depth_factor.
-  RgbdImage load(std::size_t i, const CameraOptions& camera) const;
+  RgbdImage load(std::size_t i, const CameraOptions& camera) const override;
 
   // Ground truth (world-from-marker/camera poses) when groundtruth.txt exists and could be read.
   // A malformed groundtruth.txt does not stop open(): a run does not need it (it is left out,
   // with a warning, and groundTruthProblem() says why); commands that need it throw that.
-  const std::optional<Trajectory>& groundTruth() const { return ground_truth_; }
-  const std::string& groundTruthProblem() const { return ground_truth_problem_; }
+  const std::optional<Trajectory>& groundTruth() const override { return ground_truth_; }
+  const std::string& groundTruthProblem() const override { return ground_truth_problem_; }
   // What was skipped while opening, for the run report.
-  std::vector<std::string> warnings() const { return warnings_; }
+  std::vector<std::string> warnings() const override { return warnings_; }
 
  private:
   std::filesystem::path directory_;

@@ -10,7 +10,7 @@
 
 namespace desslam::plausibility {
 
-CheckResult checkSequence(const io::TumSequence& sequence, const CameraOptions& camera,
+CheckResult checkSequence(const io::RgbdSequence& sequence, const CameraOptions& camera,
                           const PlausibilityOptions& options, size_t frame_count) {
   const size_t count = frame_count == 0 ? sequence.size() : std::min(frame_count, sequence.size());
   if (count == 0) return {};
@@ -18,10 +18,10 @@ CheckResult checkSequence(const io::TumSequence& sequence, const CameraOptions& 
   std::vector<Timestamp> stamps;
   std::vector<std::optional<SE3>> reference;
   for (size_t i = 0; i < count; ++i) {
-    const io::RgbdFrameRecord& record = sequence.record(i);
-    if (record.rgb_timestamp - sequence.record(0).rgb_timestamp > options.max_window_s) break;
-    stamps.push_back(record.rgb_timestamp);
-    if (gt) reference.push_back(interpolatePose(*gt, record.rgb_timestamp));
+    const Timestamp rgb_timestamp = sequence.rgbTimestamp(i);
+    if (rgb_timestamp - sequence.rgbTimestamp(0) > options.max_window_s) break;
+    stamps.push_back(rgb_timestamp);
+    if (gt) reference.push_back(interpolatePose(*gt, rgb_timestamp));
   }
   std::vector<CheckFrame> frames;
   for (size_t i : selectFrames(stamps, reference, options)) {
@@ -33,7 +33,7 @@ CheckResult checkSequence(const io::TumSequence& sequence, const CameraOptions& 
       frame.depth = image.depth;
       if (gt) {
         frame.T_w_c_rgb = reference[i];
-        frame.T_w_c_depth = interpolatePose(*gt, sequence.record(i).depth_timestamp);
+        frame.T_w_c_depth = interpolatePose(*gt, sequence.depthTimestamp(i));
       }
       frames.push_back(std::move(frame));
     } catch (const InputError&) {

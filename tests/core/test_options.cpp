@@ -184,5 +184,12 @@ TEST(Options, FocalLengthMustGiveAPlausibleFieldOfView) {
   EXPECT_NO_THROW([] { SystemOptions o = validDefaults(); o.camera.fx = o.camera.fy = 200; o.validate(); }());
 }
 
+TEST(Options, BagTopicsMustBeFullTopicNames) {
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.bag.rgb_topic = "camera/rgb/image_color"; }, "bag.rgb_topic");
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.bag.depth_topic = ""; }, "bag.depth_topic");
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.bag.camera_info_topic = "/camera/rgb info"; }, "bag.camera_info_topic");
+  EXPECT_NO_THROW([] { SystemOptions o = validDefaults(); o.bag.depth_topic = "/kinect/depth/image_raw"; o.validate(); }());
+}
+
 }  // namespace
 }  // namespace desslam

@@ -279,5 +279,48 @@ TEST(Config, ImplausibleFocalLengthIsNamed) {
   EXPECT_CONTAINS(nan, "camera.fx");
 }
 
+// `desslam run` on a ROS bag: the camera may come from the bag's camera_info.
+TEST(Config, IntrinsicsMayBeLeftOutOnlyAllTogetherForAnInputWithCalibration) {
+  TempDir dir;
+  const auto none = dir.write("none.yaml", "camera:\n  fps: 30\ntracking:\n  max_depth: 3.5\n");
+  ConfigForInput config = loadConfigForInput(none);
+  EXPECT_FALSE(config.intrinsics_given);
+  EXPECT_EQ(config.options.camera.fx, 0.0);
+  EXPECT_DOUBLE_EQ(config.options.tracking.max_depth, 3.5);
+  // The other sections are still validated.
+  const std::string other = configErrorOf(
+      [&] { loadConfigForInput(dir.write("o.yaml", "camera:\n  fps: 30\norb:\n  num_levels: 0\n")); });
+  EXPECT_CONTAINS(other, "orb.num_levels");
+  // Completed from the input, the options validate.
+  InputCalibration calibration;
+  calibration.fx = 525;
+  calibration.fy = 525;
+  calibration.cx = 319.5;
+  calibration.cy = 239.5;
+  calibration.width = 640;
+  calibration.height = 480;
+  calibration.distortion = {0.1, 0, 0, 0, 0};
+  useInputCalibration(config.options.camera, calibration);
+  EXPECT_NO_THROW(config.options.validate());
+  EXPECT_EQ(config.options.camera.distortion[0], 0.1);
+
+  // Given: as loadConfig.
+  const auto given = dir.write("given.yaml", kCamera);
+  EXPECT_TRUE(loadConfigForInput(given).intrinsics_given);
+  EXPECT_DOUBLE_EQ(loadConfigForInput(given).options.camera.fx, loadConfig(given).camera.fx);
+  // Half given: an error naming the missing key, saying how to leave them all out.
+  const std::string half = configErrorOf(
+      [&] { loadConfigForInput(dir.write("half.yaml", "camera:\n  fx: 500\n  fy: 500\n")); });
+  EXPECT_CONTAINS(half, "camera.cx");
+  EXPECT_CONTAINS(half, "camera_info");
+  // No intrinsics but a size or distortion: the camera comes from one place.
+  const std::string size = configErrorOf(
+      [&] { loadConfigForInput(dir.write("size.yaml", "camera:\n  width: 320\n")); });
+  EXPECT_CONTAINS(size, "size.yaml");
+  EXPECT_CONTAINS(size, "camera.width");
+  // loadConfig itself still requires them.
+  EXPECT_CONTAINS(configErrorOf([&] { loadConfig(none); }), "camera.fx");
+}
+
 }  // namespace
 }  // namespace desslam::io

@@ -8,6 +8,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <thread>
 #include <utility>
@@ -194,13 +195,15 @@ struct RunResult {
   size_t frames = 0;
 };
 
-inline RunResult runOver(const io::TumSequence& sequence, const SystemOptions& options) {
+// `max_frames`: only the first N (0: all).
+inline RunResult runOver(const io::RgbdSequence& sequence, const SystemOptions& options, size_t max_frames = 0) {
   system::RunSettings settings;
   settings.deterministic = true;
   system::SlamSystem slam(options, settings);
-  for (size_t i = 0; i < sequence.size(); ++i) {
+  const size_t count = max_frames > 0 ? std::min(max_frames, sequence.size()) : sequence.size();
+  for (size_t i = 0; i < count; ++i) {
     const io::RgbdImage image = sequence.load(i, options.camera);
-    slam.processFrame(image.timestamp, image.bgr, image.depth, sequence.record(i).rgb_path.filename().string());
+    slam.processFrame(image.timestamp, image.bgr, image.depth, sequence.frameName(i));
   }
   slam.finish();
   return {slam.cameraTrajectory(), slam.keyframeTrajectory(), slam.statistics(), slam.framesProcessed()};
