@@ -23,6 +23,7 @@
 #include "core/options.hpp"
 #include "eval/association.hpp"
 #include "feature/orb_extractor.hpp"
+#include "io/data_lines.hpp"
 #include "io/tum_dataset.hpp"
 #include "place/bow_database.hpp"
 #include "place/vocabulary.hpp"
@@ -64,12 +65,7 @@ std::vector<fs::path> readImageList(const fs::path& list) {
   std::ifstream file(list);
   if (!file) throw InputError("cannot open image list " + list.string() + ": check the path");
   std::vector<fs::path> paths;
-  std::string line;
-  int line_number = 0;
-  while (std::getline(file, line)) {
-    ++line_number;
-    const auto first = line.find_first_not_of(" \t\r");
-    if (first == std::string::npos || line[first] == '#') continue;
+  io::forEachDataLine(file, [&](const std::string& line, int) {
     std::istringstream fields(line);
     std::string a, b;
     fields >> a >> b;
@@ -82,7 +78,7 @@ std::vector<fs::path> readImageList(const fs::path& list) {
     fs::path path(path_text);
     if (path.is_relative()) path = list.parent_path() / path;
     paths.push_back(path);
-  }
+  });
   if (paths.empty()) throw InputError("image list " + list.string() + " names no images");
   return paths;
 }

@@ -12,6 +12,7 @@
 
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "io/data_lines.hpp"
 
 namespace desslam::io {
 
@@ -28,12 +29,7 @@ Trajectory parseTumTrajectory(std::istream& in, const std::string& name, std::ve
   constexpr double kMaxPosition = 1e6;  // metres; anything beyond is a broken file, and squares overflow
   Trajectory trajectory;
   std::vector<int> lines;  // line of each pose, for the tie warnings
-  std::string line;
-  int line_number = 0;
-  while (std::getline(in, line)) {
-    ++line_number;
-    const auto first = line.find_first_not_of(" \t\r");
-    if (first == std::string::npos || line[first] == '#') continue;
+  forEachDataLine(in, [&](std::string& line, int line_number) {
     for (char& c : line)
       if (c == ',') c = ' ';  // tolerate comma-separated files
     const std::string where = name + ":" + std::to_string(line_number);
@@ -64,7 +60,7 @@ Trajectory parseTumTrajectory(std::istream& in, const std::string& name, std::ve
       throw InputError(where + ": quaternion has zero or non-finite norm");
     trajectory.push_back({t, SE3(Quat(qw / qnorm, qx / qnorm, qy / qnorm, qz / qnorm), Vec3(tx, ty, tz))});
     lines.push_back(line_number);
-  }
+  });
   if (warnings != nullptr) {
     std::vector<std::size_t> order(trajectory.size());
     for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;

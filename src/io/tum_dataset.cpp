@@ -10,6 +10,7 @@
 #include <spdlog/spdlog.h>
 
 #include "core/error.hpp"
+#include "io/data_lines.hpp"
 #include "io/trajectory_io.hpp"
 
 namespace desslam::io {
@@ -104,12 +105,7 @@ void requireCameraSize(const cv::Mat& image, const fs::path& file, const CameraO
 std::vector<TimestampListEntry> parseTimestampList(std::istream& in, const std::string& name,
                                                    std::vector<std::string>* warnings) {
   std::vector<TimestampListEntry> entries;
-  std::string line;
-  int line_number = 0;
-  while (std::getline(in, line)) {
-    ++line_number;
-    const auto first = line.find_first_not_of(" \t\r");
-    if (first == std::string::npos || line[first] == '#') continue;
+  forEachDataLine(in, [&](const std::string& line, int line_number) {
     std::istringstream fields(line);
     double timestamp = 0;
     std::string file;
@@ -117,7 +113,7 @@ std::vector<TimestampListEntry> parseTimestampList(std::istream& in, const std::
       throw InputError(name + ":" + std::to_string(line_number) + ": expected 'timestamp filename', got '" +
                        (line.size() > 200 ? line.substr(0, 200) + "..." : line) + "'");
     entries.push_back({timestamp, file, line_number});
-  }
+  });
   if (warnings != nullptr) {
     // Ties: equal timestamps, found in time order; each group is one warning naming its lines.
     std::vector<std::size_t> order(entries.size());
