@@ -20,6 +20,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -530,7 +531,8 @@ int runSequence(const RunArgs& args) {
               << " (main map " << stats["atlas"]["frames_in_main_map"] << ", maps " << stats["atlas"]["maps"].size()
               << ", merges " << stats["atlas"]["merges"] << ")"
               << ", keyframes " << stats["counts"]["keyframes"] << ", map points " << stats["counts"]["map_points"]
-              << "; tracking median " << stats["timings_ms"]["tracking"]["median"] << " ms/frame\n"
+              << "; tracking median " << std::fixed << std::setprecision(1)
+              << stats["timings_ms"]["tracking"]["median"].get<double>() << std::defaultfloat << " ms/frame\n"
               << "wrote " << (out_dir / "CameraTrajectory.txt").string() << ", KeyFrameTrajectory.txt, report.json\n";
   }
   if (error) std::fprintf(stderr, "error: %s\n", error.message.c_str());

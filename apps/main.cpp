@@ -6,6 +6,9 @@
 #include <vector>
 
 #include <CLI/CLI.hpp>
+#include <spdlog/cfg/env.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
 
 #include "commands.hpp"
 
@@ -48,6 +51,17 @@ int main(int argc, char** argv) {
   desslam::app::registerVocabCommand(app);
   desslam::app::registerMapCheckCommand(app);
   desslam::app::registerReportCommand(app);
+  // Log lines go to stderr, results (tables, JSON) to stdout, so a pipe gets only the results.
+  // SPDLOG_LEVEL (e.g. debug, or "info,loop=debug") or --log-level choose how much.
+  spdlog::set_default_logger(spdlog::stderr_color_mt("desslam"));
+  spdlog::cfg::load_env_levels();
+  std::string log_level;
+  app.add_option("--log-level", log_level,
+                 "Log detail on stderr: trace, debug, info (default), warning, error, off (or env SPDLOG_LEVEL)")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warning", "warn", "error", "off"}));
+  app.parse_complete_callback([&log_level] {
+    if (!log_level.empty()) spdlog::set_level(spdlog::level::from_str(log_level == "warning" ? "warn" : log_level));
+  });
   if (const std::string unknown = unknownSubcommandMessage(app, argc, argv); !unknown.empty()) {
     std::cerr << "error: " << unknown << "\n";
     return exit_code::kUsage;

@@ -540,10 +540,18 @@ TEST_F(DesslamCli, TimestampTiesAndBadGroundTruthAreWarnings) {
   std::ofstream(sequence() / "groundtruth.txt", std::ios::app) << "1000.5 nan 0 0 0 0 0 1\n";
   const CommandResult r = run(sequence(), config(), out(), "--deterministic --quiet");
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  // (spdlog's warnings go to stdout.)
-  EXPECT_CONTAINS(r.err + r.out, "rgb.txt");
-  EXPECT_CONTAINS(r.err + r.out, "same timestamp");
-  EXPECT_CONTAINS(r.err + r.out, "ignoring the ground truth");
+  // Log lines go to stderr: stdout carries results only (empty with --quiet).
+  EXPECT_CONTAINS(r.err, "rgb.txt");
+  EXPECT_CONTAINS(r.err, "same timestamp");
+  EXPECT_CONTAINS(r.err, "ignoring the ground truth");
+  EXPECT_EQ(r.out.find("same timestamp"), std::string::npos) << "stdout:\n" << r.out;
+  EXPECT_EQ(r.out.find("[warning]"), std::string::npos) << "stdout:\n" << r.out;
+  // --log-level error keeps warnings out of stderr too.
+  const CommandResult silent = desslam("--log-level error run " + shellQuote(sequence().string()) + " -c " +
+                                       shellQuote(config().string()) + " -o " + shellQuote((out() / "silent").string()) +
+                                       " --deterministic --quiet");
+  ASSERT_EQ(silent.exit_code, 0) << silent.err;
+  EXPECT_EQ(silent.err.find("same timestamp"), std::string::npos) << silent.err;
   const auto report = nlohmann::json::parse(test::readText(out() / "report.json"));
   EXPECT_FALSE(report.contains("ate"));
   EXPECT_GE(report["input_warnings"].size(), 2u);
