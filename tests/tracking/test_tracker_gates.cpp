@@ -162,6 +162,40 @@ TEST(TrackerSpeedGate, RefusesAPoseJumpInOneFrameButNotOverHalfASecond) {
   }
 }
 
+// The same jump, refused at once; then the frames after it, still at the displaced pose: found
+// again in the same map (recovering), they are held to the speed over the time since the last
+// tracked frame: 2 frames after it refused (4.5 m/s), 0.5 s after it tracked (0.6 m/s).
+TEST(TrackerSpeedGate, AFrameFoundAgainInTheSameMapIsHeldToTheSpeedSinceTheLastTrackedFrame) {
+  SystemOptions options = baseOptions();
+  options.atlas.enabled = false;
+  options.tracking.predict_through_loss_s = 0;
+  const Trajectory path = sim::sweepPath(kSpeedFrames, options.camera.fps);
+  const StampedPose& last = path.back();
+  const SE3 T_w_jump(last.T_w_c.rotation(), last.T_w_c.translation() + last.T_w_c.rotation() * Vec3(0.3, 0.0, 0.0));
+  const SE3 expected_T_c_w = (path.front().T_w_c.inverse() * T_w_jump).inverse();
+  const double frame_s = 1.0 / options.camera.fps;
+
+  Rig rig(options);
+  for (int i = 0; i < kSpeedFrames; ++i) {
+    map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
+    ASSERT_TRUE(rig.track(frame).tracked) << "frame " << i;
+  }
+  map::Frame jump = rig.render(T_w_jump, last.timestamp + frame_s, kSpeedFrames);
+  ASSERT_FALSE(rig.track(jump).tracked);
+  ASSERT_EQ(rig.tracker().state(), TrackingState::kLost);
+  ASSERT_EQ(rig.tracker().implausibleJumps(), 1);
+
+  map::Frame again = rig.render(T_w_jump, last.timestamp + 2 * frame_s, kSpeedFrames + 1);
+  EXPECT_FALSE(rig.track(again).tracked);
+  EXPECT_EQ(rig.tracker().implausibleJumps(), 2) << "recovered 0.3 m away after 2 frames (4.5 m/s)";
+  EXPECT_LT(cameraDistance(again.T_c_w, expected_T_c_w), 0.03) << "the refused pose is the jump";
+
+  map::Frame later = rig.render(T_w_jump, last.timestamp + 0.5, kSpeedFrames + 2);
+  EXPECT_TRUE(rig.track(later).tracked);
+  EXPECT_EQ(rig.tracker().implausibleJumps(), 2);
+  EXPECT_LT(cameraDistance(later.T_c_w, expected_T_c_w), 0.03);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Mapping margin
 
