@@ -99,21 +99,59 @@ void DenseMap::addKeyframe(const DenseKeyframe& keyframe) {
   integrate((*back_projector_)(keyframe), keyframe.T_w_c, keyframe.depth);
 }
 
+void DenseMap::setAnchorPoint(Voxel& voxel, const Eigen::Vector3f& p_anchor) {
+  voxel.p_anchor = p_anchor;
+  keyframes_[voxel.anchor].box_anchor.extend(p_anchor);
+}
+
+namespace {
+// Whether some point of the box (anchor frame) may lie in the view volume of a camera at
+// T_c_a: min_z <= z <= max_z and the projection inside [min_x, max_x) x [min_y, max_y). False
+// only when all 8 corners lie outside one bounding plane of that volume (it is convex), so no
+// voxel inside could pass carve()'s per-voxel test. Planes are widened by a margin against
+// rounding.
+bool mayBeInView(const Eigen::AlignedBox3f& box, const Eigen::Matrix3f& R_c_a, const Eigen::Vector3f& t_c_a,
+                 const PinholeCamera& camera, float min_z, float max_z) {
+  if (box.isEmpty()) return false;
+  constexpr float kMarginPx = 2.0f, kMarginM = 0.01f;
+  // u >= min_x  <=>  x - z (min_x - cx) / fx >= 0 (for z > 0), and so on.
+  const float left = static_cast<float>((camera.minX() - kMarginPx - camera.cx()) / camera.fx());
+  const float right = static_cast<float>((camera.maxX() + kMarginPx - camera.cx()) / camera.fx());
+  const float top = static_cast<float>((camera.minY() - kMarginPx - camera.cy()) / camera.fy());
+  const float bottom = static_cast<float>((camera.maxY() + kMarginPx - camera.cy()) / camera.fy());
+  bool all_near = true, all_far = true, all_left = true, all_right = true, all_top = true, all_bottom = true;
+  for (int c = 0; c < 8; ++c) {
+    const Eigen::Vector3f p = R_c_a * box.corner(static_cast<Eigen::AlignedBox3f::CornerType>(c)) + t_c_a;
+    all_near = all_near && p.z() < min_z - kMarginM;
+    all_far = all_far && p.z() > max_z + kMarginM;
+    all_left = all_left && p.x() < left * p.z();
+    all_right = all_right && p.x() > right * p.z();
+    all_top = all_top && p.y() < top * p.z();
+    all_bottom = all_bottom && p.y() > bottom * p.z();
+  }
+  return !(all_near || all_far || all_left || all_right || all_top || all_bottom);
+}
+}  // namespace
+
 size_t DenseMap::carve(const cv::Mat& depth, const SE3& T_w_c) {
   if (depth.empty() || voxels_.empty()) return 0;
-  // Per anchor: camera-from-anchor, so each voxel costs one small matrix product.
+  const float tolerance = static_cast<float>(options_.carve_tolerance);
+  const float min_z = static_cast<float>(options_.min_depth), max_z = static_cast<float>(options_.max_depth);
+  // Per anchor: camera-from-anchor, so each voxel costs one small matrix product, and whether
+  // any of its voxels can be in view at all (most anchors of a long run are not).
   std::vector<Eigen::Matrix3f> R_c_a(keyframes_.size());
   std::vector<Eigen::Vector3f> t_c_a(keyframes_.size());
+  std::vector<uint8_t> in_view(keyframes_.size());
   const SE3 T_c_w = T_w_c.inverse();
   for (size_t k = 0; k < keyframes_.size(); ++k) {
     const SE3 T_c_a = T_c_w * keyframes_[k].T_w_c;
     R_c_a[k] = T_c_a.rotation().cast<float>();
     t_c_a[k] = T_c_a.translation().cast<float>();
+    in_view[k] = mayBeInView(keyframes_[k].box_anchor, R_c_a[k], t_c_a[k], camera_, min_z, max_z) ? 1 : 0;
   }
-  const float tolerance = static_cast<float>(options_.carve_tolerance);
-  const float min_z = static_cast<float>(options_.min_depth), max_z = static_cast<float>(options_.max_depth);
   size_t missed = 0;
   for (Voxel& voxel : voxels_) {
+    if (!in_view[voxel.anchor]) continue;
     const Eigen::Vector3f p_c = R_c_a[voxel.anchor] * voxel.p_anchor + t_c_a[voxel.anchor];
     if (p_c.z() < min_z || p_c.z() > max_z) continue;
     const Vec2 uv = camera_.project(p_c.cast<double>());
@@ -186,8 +224,8 @@ void DenseMap::integrate(const KeyframeCloud& cloud, const SE3& T_w_c, const cv:
       Voxel voxel;
       voxel.key = group_keys[g];
       const Vec3 p_c = to_camera * mean_w;
-      voxel.p_anchor = p_c.cast<float>();
       voxel.anchor = self;
+      setAnchorPoint(voxel, p_c.cast<float>());
       voxel.observations = 1;
       voxel.rgb = {toByte(mean_rgb.x()), toByte(mean_rgb.y()), toByte(mean_rgb.z())};
       voxel.label = group.label;
@@ -200,7 +238,7 @@ void DenseMap::integrate(const KeyframeCloud& cloud, const SE3& T_w_c, const cv:
     Voxel& voxel = voxels_[*stored];
     const Vec3 p_a = to_anchor[voxel.anchor] * mean_w;
     const double w = 1.0 / (voxel.observations + 1.0);
-    voxel.p_anchor = (voxel.p_anchor.cast<double>() * (1 - w) + p_a * w).cast<float>();
+    setAnchorPoint(voxel, (voxel.p_anchor.cast<double>() * (1 - w) + p_a * w).cast<float>());
     for (int c = 0; c < 3; ++c) voxel.rgb[c] = toByte(voxel.rgb[c] * (1 - w) + mean_rgb[c] * w);
     vote(voxel.label, voxel.label_votes, group.label, 1);
     ++voxel.observations;
@@ -255,11 +293,11 @@ Vec3 DenseMap::worldPoint(const Voxel& voxel, const std::vector<SE3>& T_w_anchor
   return T_w_anchor[voxel.anchor] * voxel.p_anchor.cast<double>();
 }
 
-void DenseMap::mergeVoxel(Voxel& into, const Voxel& from, const std::vector<SE3>& T_w_anchor) const {
+void DenseMap::mergeVoxel(Voxel& into, const Voxel& from, const std::vector<SE3>& T_w_anchor) {
   const Vec3 p_into = T_w_anchor[into.anchor].inverse() * worldPoint(from, T_w_anchor);
   const double total = static_cast<double>(into.observations) + from.observations;
   const double w = from.observations / total;
-  into.p_anchor = (into.p_anchor.cast<double>() * (1 - w) + p_into * w).cast<float>();
+  setAnchorPoint(into, (into.p_anchor.cast<double>() * (1 - w) + p_into * w).cast<float>());
   for (int c = 0; c < 3; ++c) into.rgb[c] = toByte(into.rgb[c] * (1 - w) + from.rgb[c] * w);
   vote(into.label, into.label_votes, from.label, from.label_votes);
   into.observations += from.observations;

@@ -34,6 +34,8 @@
 #include <unordered_map>
 #include <vector>
 
+#include <Eigen/Geometry>
+
 #include "core/camera.hpp"
 #include "core/options.hpp"
 #include "core/se3.hpp"
@@ -113,6 +115,9 @@ class DenseMap {
     SE3 T_w_c;        // newest pose
     SE3 T_w_c_keyed;  // pose the anchored voxels' keys were computed with
     float max_range = 0;     // farthest anchored point from the camera (bounds motion by rotation)
+    // Holds every anchored voxel's p_anchor (grown on every write, never shrunk): carve() skips
+    // the voxels of anchors whose box lies outside the view.
+    Eigen::AlignedBox3f box_anchor;
     uint32_t anchored = 0;   // voxels anchored here
     bool culled = false;
   };
@@ -128,10 +133,11 @@ class DenseMap {
   };
 
   uint32_t registerKeyframe(uint64_t id, Timestamp timestamp, const SE3& T_w_c);
+  void setAnchorPoint(Voxel& voxel, const Eigen::Vector3f& p_anchor);  // keeps box_anchor whole
   uint64_t keyOf(const Vec3& p_w) const;
   Vec3 worldPoint(const Voxel& voxel, const std::vector<SE3>& T_w_anchor) const;
   // Merges voxel `from` into `into` (both stored voxels, world poses as given).
-  void mergeVoxel(Voxel& into, const Voxel& from, const std::vector<SE3>& T_w_anchor) const;
+  void mergeVoxel(Voxel& into, const Voxel& from, const std::vector<SE3>& T_w_anchor);
   void rekeyMovedAnchors();
   std::vector<SE3> anchorPoses(const PoseMap& T_w_c_by_id) const;
 

@@ -141,6 +141,57 @@ TEST_F(TwoDisjointViews, MinObservationsKeepsOnlyVoxelsSeenByEnoughKeyframes) {
   }
 }
 
+// carve() skips anchors whose voxels cannot be in view; the misses it counts must still be
+// those of checking every voxel. Reference: every stored voxel (worldScans) projected into the
+// carving camera and tested with the same 3x3 rule. Keyframe 1's wall spans x in [-1.9, 1.9],
+// keyframe 2's x in [4.1, 7.9]; the carving camera at x = 3 sees a wall behind (z = 5) over
+// x in [1.1, 4.9], so both anchors are partly in view; turned around, or far off, it sees none.
+TEST_F(TwoDisjointViews, CarveSkipsOnlyAnchorsOutOfViewAndCountsEveryMiss) {
+  DenseMap map(noFilterOptions(), camera);
+  map.addKeyframe(kf1);
+  map.addKeyframe(kf2);
+  const DenseOptions options = map.options();
+  const auto expectedMisses = [&](const cv::Mat& depth, const SE3& T_w_c) {
+    size_t misses = 0;
+    for (const WorldScan& scan : map.worldScans())
+      for (const Vec3& p_w : scan.points_w) {
+        const Vec3 p_c = T_w_c.inverse() * p_w;
+        if (p_c.z() < options.min_depth || p_c.z() > options.max_depth) continue;
+        const Vec2 uv = camera.project(p_c);
+        if (!camera.inImage(uv)) continue;
+        const int x = static_cast<int>(std::lround(uv.x())), y = static_cast<int>(std::lround(uv.y()));
+        if (x < 1 || y < 1 || x >= depth.cols - 1 || y >= depth.rows - 1) continue;
+        bool through = depth.at<float>(y, x) > 0;
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const float d = depth.at<float>(y + dy, x + dx);
+            if (d > 0 && d <= p_c.z() + options.carve_tolerance) through = false;
+          }
+        misses += through ? 1 : 0;
+      }
+    return misses;
+  };
+  const SE3 between(Mat3::Identity(), Vec3(3.0, 0, 0));
+  const SE3 turned(Mat3(Eigen::AngleAxisd(M_PI, Vec3::UnitY())), Vec3(3.0, 0, 0));
+  const SE3 far_off(Mat3::Identity(), Vec3(20.0, 0, 0));
+  const std::vector<SE3> cameras = {between, turned, far_off};
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    const SE3& T_w_c = cameras[c];
+    // The turned camera looks down -z: a wall at z = -2 behind it in its view.
+    const cv::Mat depth = test::planeDepth(camera, T_w_c, Vec3::UnitZ(), c == 1 ? -2.0 : 5.0);
+    const size_t expected = expectedMisses(depth, T_w_c);
+    const size_t missed = map.carve(depth, T_w_c);
+    // float vs double projection may round a pixel differently for a voxel or two
+    EXPECT_NEAR(static_cast<double>(missed), static_cast<double>(expected), 2.0 + expected * 0.002)
+        << "camera at " << T_w_c.translation().transpose();
+    if (c == 0) {
+      EXPECT_GT(expected, 1000u);  // both walls partly seen through
+    } else {
+      EXPECT_EQ(expected, 0u);
+    }
+  }
+}
+
 // ---- sidecar ------------------------------------------------------------------------------
 
 TEST(MapSources, RoundTripAndClearErrors) {
