@@ -99,21 +99,59 @@ void DenseMap::addKeyframe(const DenseKeyframe& keyframe) {
   integrate((*back_projector_)(keyframe), keyframe.T_w_c, keyframe.depth);
 }
 
+void DenseMap::setAnchorPoint(Voxel& voxel, const Eigen::Vector3f& p_anchor) {
+  voxel.p_anchor = p_anchor;
+  keyframes_[voxel.anchor].box_anchor.extend(p_anchor);
+}
+
+namespace {
+// Whether some point of the box (anchor frame) may lie in the view volume of a camera at
+// T_c_a: min_z <= z <= max_z and the projection inside [min_x, max_x) x [min_y, max_y). False
+// only when all 8 corners lie outside one bounding plane of that volume (it is convex), so no
+// voxel inside could pass carve()'s per-voxel test. Planes are widened by a margin against
+// rounding.
+bool mayBeInView(const Eigen::AlignedBox3f& box, const Eigen::Matrix3f& R_c_a, const Eigen::Vector3f& t_c_a,
+                 const PinholeCamera& camera, float min_z, float max_z) {
+  if (box.isEmpty()) return false;
+  constexpr float kMarginPx = 2.0f, kMarginM = 0.01f;
+  // u >= min_x  <=>  x - z (min_x - cx) / fx >= 0 (for z > 0), and so on.
+  const float left = static_cast<float>((camera.minX() - kMarginPx - camera.cx()) / camera.fx());
+  const float right = static_cast<float>((camera.maxX() + kMarginPx - camera.cx()) / camera.fx());
+  const float top = static_cast<float>((camera.minY() - kMarginPx - camera.cy()) / camera.fy());
+  const float bottom = static_cast<float>((camera.maxY() + kMarginPx - camera.cy()) / camera.fy());
+  bool all_near = true, all_far = true, all_left = true, all_right = true, all_top = true, all_bottom = true;
+  for (int c = 0; c < 8; ++c) {
+    const Eigen::Vector3f p = R_c_a * box.corner(static_cast<Eigen::AlignedBox3f::CornerType>(c)) + t_c_a;
+    all_near = all_near && p.z() < min_z - kMarginM;
+    all_far = all_far && p.z() > max_z + kMarginM;
+    all_left = all_left && p.x() < left * p.z();
+    all_right = all_right && p.x() > right * p.z();
+    all_top = all_top && p.y() < top * p.z();
+    all_bottom = all_bottom && p.y() > bottom * p.z();
+  }
+  return !(all_near || all_far || all_left || all_right || all_top || all_bottom);
+}
+}  // namespace
+
 size_t DenseMap::carve(const cv::Mat& depth, const SE3& T_w_c) {
   if (depth.empty() || voxels_.empty()) return 0;
-  // Per anchor: camera-from-anchor, so each voxel costs one small matrix product.
+  const float tolerance = static_cast<float>(options_.carve_tolerance);
+  const float min_z = static_cast<float>(options_.min_depth), max_z = static_cast<float>(options_.max_depth);
+  // Per anchor: camera-from-anchor, so each voxel costs one small matrix product, and whether
+  // any of its voxels can be in view at all (most anchors of a long run are not).
   std::vector<Eigen::Matrix3f> R_c_a(keyframes_.size());
   std::vector<Eigen::Vector3f> t_c_a(keyframes_.size());
+  std::vector<uint8_t> in_view(keyframes_.size());
   const SE3 T_c_w = T_w_c.inverse();
   for (size_t k = 0; k < keyframes_.size(); ++k) {
     const SE3 T_c_a = T_c_w * keyframes_[k].T_w_c;
     R_c_a[k] = T_c_a.rotation().cast<float>();
     t_c_a[k] = T_c_a.translation().cast<float>();
+    in_view[k] = mayBeInView(keyframes_[k].box_anchor, R_c_a[k], t_c_a[k], camera_, min_z, max_z) ? 1 : 0;
   }
-  const float tolerance = static_cast<float>(options_.carve_tolerance);
-  const float min_z = static_cast<float>(options_.min_depth), max_z = static_cast<float>(options_.max_depth);
   size_t missed = 0;
   for (Voxel& voxel : voxels_) {
+    if (!in_view[voxel.anchor]) continue;
     const Eigen::Vector3f p_c = R_c_a[voxel.anchor] * voxel.p_anchor + t_c_a[voxel.anchor];
     if (p_c.z() < min_z || p_c.z() > max_z) continue;
     const Vec2 uv = camera_.project(p_c.cast<double>());
@@ -141,6 +179,7 @@ size_t DenseMap::carve(const cv::Mat& depth, const SE3& T_w_c) {
 void DenseMap::integrate(const KeyframeCloud& cloud, const SE3& T_w_c, const cv::Mat& depth) {
   if (options_.carve_free_space) carve(depth, T_w_c);
   const uint32_t self = registerKeyframe(cloud.keyframe_id, cloud.timestamp, T_w_c);
+  rekeyNow();  // the merge below looks voxels up by key
   const Rigid to_world(T_w_c);
 
   // 1. This keyframe's points grouped by world voxel: one observation per voxel and keyframe.
@@ -150,19 +189,19 @@ void DenseMap::integrate(const KeyframeCloud& cloud, const SE3& T_w_c, const cv:
     uint32_t count = 0;
     uint8_t label = 0, label_votes = 0;
   };
-  std::unordered_map<uint64_t, uint32_t> group_of;
+  VoxelIndex group_of;  // key -> index into groups
   group_of.reserve(cloud.size());
   std::vector<Group> groups;
   std::vector<uint64_t> group_keys;
   for (size_t i = 0; i < cloud.size(); ++i) {
     const Vec3 p_w = to_world * cloud.points_c[i].cast<double>();
     const uint64_t key = keyOf(p_w);
-    auto [it, inserted] = group_of.try_emplace(key, static_cast<uint32_t>(groups.size()));
+    const auto [group, inserted] = group_of.tryEmplace(key, static_cast<uint32_t>(groups.size()));
     if (inserted) {
       groups.emplace_back();
       group_keys.push_back(key);
     }
-    Group& g = groups[it->second];
+    Group& g = groups[*group];
     g.sum_w += p_w;
     g.sum_rgb += Vec3(cloud.rgb[i][0], cloud.rgb[i][1], cloud.rgb[i][2]);
     ++g.count;
@@ -171,20 +210,22 @@ void DenseMap::integrate(const KeyframeCloud& cloud, const SE3& T_w_c, const cv:
 
   // 2. Merge into existing voxels (in their anchor's frame, anchor's current pose) or create.
   const Rigid to_camera(T_w_c.inverse());
-  std::unordered_map<uint32_t, Rigid> to_anchor;  // anchor index -> T_a_w, built on demand
+  std::vector<Rigid> to_anchor;  // anchor index -> T_a_w (a few hundred: cheaper than on demand)
+  to_anchor.reserve(keyframes_.size());
+  for (const KeyframeRecord& r : keyframes_) to_anchor.emplace_back(r.T_w_c.inverse());
   voxel_index_.reserve(voxel_index_.size() + groups.size());
   KeyframeRecord& record = keyframes_[self];
   for (size_t g = 0; g < groups.size(); ++g) {
     const Group& group = groups[g];
     const Vec3 mean_w = group.sum_w / group.count;
     const Vec3 mean_rgb = group.sum_rgb / group.count;
-    auto [it, inserted] = voxel_index_.try_emplace(group_keys[g], static_cast<uint32_t>(voxels_.size()));
+    const auto [stored, inserted] = voxel_index_.tryEmplace(group_keys[g], static_cast<uint32_t>(voxels_.size()));
     if (inserted) {
       Voxel voxel;
       voxel.key = group_keys[g];
       const Vec3 p_c = to_camera * mean_w;
-      voxel.p_anchor = p_c.cast<float>();
       voxel.anchor = self;
+      setAnchorPoint(voxel, p_c.cast<float>());
       voxel.observations = 1;
       voxel.rgb = {toByte(mean_rgb.x()), toByte(mean_rgb.y()), toByte(mean_rgb.z())};
       voxel.label = group.label;
@@ -194,13 +235,10 @@ void DenseMap::integrate(const KeyframeCloud& cloud, const SE3& T_w_c, const cv:
       ++record.anchored;
       continue;
     }
-    Voxel& voxel = voxels_[it->second];
-    auto anchor_it = to_anchor.find(voxel.anchor);
-    if (anchor_it == to_anchor.end())
-      anchor_it = to_anchor.emplace(voxel.anchor, Rigid(keyframes_[voxel.anchor].T_w_c.inverse())).first;
-    const Vec3 p_a = anchor_it->second * mean_w;
+    Voxel& voxel = voxels_[*stored];
+    const Vec3 p_a = to_anchor[voxel.anchor] * mean_w;
     const double w = 1.0 / (voxel.observations + 1.0);
-    voxel.p_anchor = (voxel.p_anchor.cast<double>() * (1 - w) + p_a * w).cast<float>();
+    setAnchorPoint(voxel, (voxel.p_anchor.cast<double>() * (1 - w) + p_a * w).cast<float>());
     for (int c = 0; c < 3; ++c) voxel.rgb[c] = toByte(voxel.rgb[c] * (1 - w) + mean_rgb[c] * w);
     vote(voxel.label, voxel.label_votes, group.label, 1);
     ++voxel.observations;
@@ -218,7 +256,6 @@ bool DenseMap::isCulled(uint64_t keyframe_id) const {
 }
 
 void DenseMap::updatePoses(const PoseMap& T_w_c_by_id) {
-  bool stale = false;
   for (const auto& [id, pose] : T_w_c_by_id) {
     const auto it = keyframe_index_.find(id);
     if (it == keyframe_index_.end()) continue;
@@ -232,9 +269,14 @@ void DenseMap::updatePoses(const PoseMap& T_w_c_by_id) {
     const SE3 delta = pose * record.T_w_c_keyed.inverse();
     const double moved = (pose.translation() - record.T_w_c_keyed.translation()).norm() +
                          delta.rotationAngle() * record.max_range;
-    stale = stale || moved > 0.5 * options_.voxel_size;
+    keys_stale_ = keys_stale_ || moved > 0.5 * options_.voxel_size;
   }
-  if (stale) rekeyMovedAnchors();
+}
+
+void DenseMap::rekeyNow() {
+  if (!keys_stale_) return;
+  rekeyMovedAnchors();
+  keys_stale_ = false;
 }
 
 std::vector<SE3> DenseMap::anchorPoses(const PoseMap& T_w_c_by_id) const {
@@ -251,11 +293,11 @@ Vec3 DenseMap::worldPoint(const Voxel& voxel, const std::vector<SE3>& T_w_anchor
   return T_w_anchor[voxel.anchor] * voxel.p_anchor.cast<double>();
 }
 
-void DenseMap::mergeVoxel(Voxel& into, const Voxel& from, const std::vector<SE3>& T_w_anchor) const {
+void DenseMap::mergeVoxel(Voxel& into, const Voxel& from, const std::vector<SE3>& T_w_anchor) {
   const Vec3 p_into = T_w_anchor[into.anchor].inverse() * worldPoint(from, T_w_anchor);
   const double total = static_cast<double>(into.observations) + from.observations;
   const double w = from.observations / total;
-  into.p_anchor = (into.p_anchor.cast<double>() * (1 - w) + p_into * w).cast<float>();
+  setAnchorPoint(into, (into.p_anchor.cast<double>() * (1 - w) + p_into * w).cast<float>());
   for (int c = 0; c < 3; ++c) into.rgb[c] = toByte(into.rgb[c] * (1 - w) + from.rgb[c] * w);
   vote(into.label, into.label_votes, from.label, from.label_votes);
   into.observations += from.observations;
@@ -276,26 +318,30 @@ void DenseMap::rekeyMovedAnchors() {
   to_world.reserve(poses.size());
   for (const SE3& T : poses) to_world.emplace_back(T);
 
-  // Take the moved voxels out of the index, then put them back under their new keys; a voxel
-  // landing on an occupied key is merged into the one with the older anchor (first seen).
-  std::vector<uint32_t> moving;
+  // Take the voxels whose key changed out of the index, then put them back under their new
+  // keys; a voxel landing on an occupied key is merged into the one with the older anchor
+  // (first seen). Most voxels of a moved anchor keep their key (a correction of a few mm):
+  // those stay in the index untouched.
+  std::vector<std::pair<uint32_t, uint64_t>> moving;  // voxel index, new key
   for (uint32_t i = 0; i < voxels_.size(); ++i) {
-    if (!moved[voxels_[i].anchor]) continue;
-    moving.push_back(i);
-    const auto it = voxel_index_.find(voxels_[i].key);
-    if (it != voxel_index_.end() && it->second == i) voxel_index_.erase(it);
+    const Voxel& voxel = voxels_[i];
+    if (!moved[voxel.anchor]) continue;
+    const uint64_t key = keyOf(to_world[voxel.anchor] * voxel.p_anchor.cast<double>());
+    if (key == voxel.key) continue;
+    moving.emplace_back(i, key);
+    if (const uint32_t* it = voxel_index_.find(voxel.key); it != nullptr && *it == i) voxel_index_.erase(voxel.key);
   }
   std::vector<uint32_t> dead;
-  for (uint32_t i : moving) {
+  for (const auto& [i, key] : moving) {
     Voxel& voxel = voxels_[i];
-    voxel.key = keyOf(to_world[voxel.anchor] * voxel.p_anchor.cast<double>());
-    auto [it, inserted] = voxel_index_.try_emplace(voxel.key, i);
+    voxel.key = key;
+    const auto [stored, inserted] = voxel_index_.tryEmplace(voxel.key, i);
     if (inserted) continue;
-    Voxel& other = voxels_[it->second];
+    Voxel& other = voxels_[*stored];
     if (keyframes_[voxel.anchor].timestamp < keyframes_[other.anchor].timestamp) {
       mergeVoxel(voxel, other, poses);
-      dead.push_back(it->second);
-      it->second = i;
+      dead.push_back(*stored);
+      *stored = i;
     } else {
       mergeVoxel(other, voxel, poses);
       dead.push_back(i);
@@ -308,7 +354,7 @@ void DenseMap::rekeyMovedAnchors() {
     const auto last = static_cast<uint32_t>(voxels_.size() - 1);
     if (i != last) {
       voxels_[i] = voxels_[last];
-      voxel_index_[voxels_[i].key] = i;
+      *voxel_index_.find(voxels_[i].key) = i;
     }
     voxels_.pop_back();
   }
@@ -336,17 +382,17 @@ DenseCloud DenseMap::extract(const PoseMap& T_w_c_by_id) const {
   };
   std::vector<Merged> merged;
   merged.reserve(voxels_.size());
-  std::unordered_map<uint64_t, uint32_t> index;
+  VoxelIndex index;  // world key -> index into merged
   index.reserve(voxels_.size());
   for (const Voxel& voxel : voxels_) {
     const Vec3 p_w = to_world[voxel.anchor] * voxel.p_anchor.cast<double>();
     const uint64_t key = keyOf(p_w);
-    auto [it, inserted] = index.try_emplace(key, static_cast<uint32_t>(merged.size()));
+    const auto [slot, inserted] = index.tryEmplace(key, static_cast<uint32_t>(merged.size()));
     if (inserted) {
       merged.push_back(Merged{key});
       merged.back().first_seen = keyframes_[voxel.anchor].timestamp;
     }
-    Merged& m = merged[it->second];
+    Merged& m = merged[*slot];
     m.sum_w += p_w * voxel.observations;
     m.sum_rgb += Vec3(voxel.rgb[0], voxel.rgb[1], voxel.rgb[2]) * voxel.observations;
     m.observations += voxel.observations;

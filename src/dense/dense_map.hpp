@@ -14,6 +14,10 @@
 //    were computed with the anchors' poses at the last re-key; when some anchor has moved so
 //    that one of its points may have moved more than half a voxel (|dt| + angle * range), the
 //    voxels of the moved anchors are re-keyed, and voxels that now share a key are merged.
+//    The re-key is deferred to the next integrate(), the only user of the keys (extract() and
+//    worldScans() place voxels with the poses themselves): pose updates between two keyframes
+//    cost one re-key, and an export after the final bundle adjustment none. Only voxels whose
+//    key actually changes touch the index.
 //  - extract()/exportCloud(): each voxel goes to world with its anchor's newest pose, one voxel
 //    downsample merges voxels that moved together (weighted by observations), then the
 //    min_observations and statistical outlier filters.
@@ -30,11 +34,14 @@
 #include <unordered_map>
 #include <vector>
 
+#include <Eigen/Geometry>
+
 #include "core/camera.hpp"
 #include "core/options.hpp"
 #include "core/se3.hpp"
 #include "dense/back_projection.hpp"
 #include "dense/dense_keyframe.hpp"
+#include "dense/voxel_index.hpp"
 
 namespace open3d::geometry {
 class PointCloud;
@@ -49,7 +56,7 @@ struct DenseMapStats {
   size_t voxel_misses = 0;     // carve(): voxel-keyframe pairs seen through, summed
   size_t keyframes = 0;        // keyframes ever added (culled included)
   size_t culled = 0;
-  size_t rekeys = 0;           // partial re-keyings triggered by pose updates
+  size_t rekeys = 0;           // partial re-keyings triggered by pose updates (done, not pending)
   size_t voxels_rekeyed = 0;   // voxels moved to a new key, summed over re-keyings
   size_t voxels_merged = 0;    // voxels merged into another by re-keying
 };
@@ -71,8 +78,11 @@ class DenseMap {
   size_t carve(const cv::Mat& depth, const SE3& T_w_c);
   // Culled keyframe: its voxels and pose stay (see the top of this file). Unknown ids ignored.
   void removeKeyframe(uint64_t keyframe_id);
-  // New poses of keyframes already added; other ids are ignored. May re-key (see above).
+  // New poses of keyframes already added; other ids are ignored. Marks the keys stale when
+  // an anchor moved enough; the next integrate() re-keys (see above), or rekeyNow().
   void updatePoses(const PoseMap& T_w_c_by_id);
+  // Re-keys now if a pose update left keys stale (integrate() does this itself).
+  void rekeyNow();
 
   // Voxels in the world frame (poses from T_w_c_by_id, else the newest stored), merged by one
   // voxel downsample at voxel_size, then min_observations; NO outlier removal. Ordered by world
@@ -92,7 +102,7 @@ class DenseMap {
   bool contains(uint64_t keyframe_id) const { return keyframe_index_.count(keyframe_id) != 0; }
   bool isCulled(uint64_t keyframe_id) const;
   size_t keyframeCount() const { return keyframes_.size(); }  // ever added, culled included
-  size_t voxelCount() const { return voxels_.size(); }
+  size_t voxelCount() const { return voxels_.size(); }  // stored; a pending re-key may merge some
   DenseMapStats stats() const;
   PoseMap poses() const;  // newest stored pose of every keyframe ever added
   const BackProjector& backProjector() const { return *back_projector_; }
@@ -105,6 +115,9 @@ class DenseMap {
     SE3 T_w_c;        // newest pose
     SE3 T_w_c_keyed;  // pose the anchored voxels' keys were computed with
     float max_range = 0;     // farthest anchored point from the camera (bounds motion by rotation)
+    // Holds every anchored voxel's p_anchor (grown on every write, never shrunk): carve() skips
+    // the voxels of anchors whose box lies outside the view.
+    Eigen::AlignedBox3f box_anchor;
     uint32_t anchored = 0;   // voxels anchored here
     bool culled = false;
   };
@@ -120,10 +133,11 @@ class DenseMap {
   };
 
   uint32_t registerKeyframe(uint64_t id, Timestamp timestamp, const SE3& T_w_c);
+  void setAnchorPoint(Voxel& voxel, const Eigen::Vector3f& p_anchor);  // keeps box_anchor whole
   uint64_t keyOf(const Vec3& p_w) const;
   Vec3 worldPoint(const Voxel& voxel, const std::vector<SE3>& T_w_anchor) const;
   // Merges voxel `from` into `into` (both stored voxels, world poses as given).
-  void mergeVoxel(Voxel& into, const Voxel& from, const std::vector<SE3>& T_w_anchor) const;
+  void mergeVoxel(Voxel& into, const Voxel& from, const std::vector<SE3>& T_w_anchor);
   void rekeyMovedAnchors();
   std::vector<SE3> anchorPoses(const PoseMap& T_w_c_by_id) const;
 
@@ -133,7 +147,8 @@ class DenseMap {
   std::vector<KeyframeRecord> keyframes_;
   std::unordered_map<uint64_t, uint32_t> keyframe_index_;  // id -> index into keyframes_
   std::vector<Voxel> voxels_;
-  std::unordered_map<uint64_t, uint32_t> voxel_index_;  // key -> index into voxels_
+  VoxelIndex voxel_index_;  // key -> index into voxels_
+  bool keys_stale_ = false;  // some anchor moved more than half a voxel since its voxels were keyed
   size_t rekeys_ = 0, voxels_rekeyed_ = 0, voxels_merged_ = 0, voxel_misses_ = 0;
 };
 

@@ -5,9 +5,10 @@
 //  - the queue's own mutex (BoundedQueue) guards only the queue;
 //  - map_mutex_ guards map_, pose_overrides_, pending_poses_, culled_ids_, the timings and
 //    processed_ and failure_. The worker back-projects BEFORE taking it and holds it while applying pending
-//    poses (a re-key is linear in the moved voxels) and merging the keyframe into the voxel map
-//    (with free-space carving: up to a few hundred ms); exportCloud() holds it while extracting
-//    the voxels and runs the outlier filter after releasing it;
+//    poses and merging the keyframe into the voxel map (the deferred re-key, linear in the voxels
+//    of moved anchors, then free-space carving and the merge: tens of ms on Bonn crowd);
+//    exportCloud() holds it while extracting the voxels (poses only, never a re-key) and runs
+//    the outlier filter after releasing it;
 //  - inbox_mutex_ guards only inbox_poses_: updatePoses() takes nothing else, and push() takes
 //    no lock but the queue's (pushed_ and stopped_ are atomics), so the tracking thread never
 //    waits for the worker's merge. Order: map_mutex_ -> inbox_mutex_ (the worker moves the inbox
@@ -47,8 +48,8 @@ class DenseMappingThread {
 
   // Any thread. New poses for keyframes (after local BA / loop closure). Also remembered for
   // keyframes still in the queue, so an update is never lost to the race with the worker.
-  // Cheap for the caller: the map applies them (and re-keys if needed) in the worker before
-  // its next keyframe, or in the next export/snapshot call.
+  // Cheap for the caller: the map takes them in the worker before its next keyframe (and
+  // re-keys then if needed), or in the next export/snapshot call (which never re-keys).
   void updatePoses(const PoseMap& T_w_c_by_id);
   // Any thread. A culled keyframe: its voxels stay (DenseMap::removeKeyframe), also when it is
   // still queued (then it is marked once mapped).

@@ -106,9 +106,12 @@ void writeOctomap(const fs::path& path, const std::vector<WorldScan>& scans, dou
     const octomap::point3d origin(static_cast<float>(scan.origin_w.x()), static_cast<float>(scan.origin_w.y()),
                                   static_cast<float>(scan.origin_w.z()));
     // discretize: one ray per end cell rather than per point; the clouds are already voxelised.
-    tree.insertPointCloud(points, origin, max_range > 0 ? max_range : -1.0, /*lazy_eval=*/false,
+    // lazy_eval: inner nodes are brought up to date once at the end, not after every cell (the
+    // leaves' log-odds are the same; writeBinary prunes either way).
+    tree.insertPointCloud(points, origin, max_range > 0 ? max_range : -1.0, /*lazy_eval=*/true,
                           /*discretize=*/true);
   }
+  tree.updateInnerOccupancy();
   writeTree(path, tree);
 }
 

@@ -94,7 +94,15 @@ TEST_F(TwoDisjointViews, PoseUpdateAfterInsertionMovesOnlyThatKeyframesPoints) {
     const Vec3 p_c = corrected.inverse() * p;
     ASSERT_NEAR(p_c.z(), 3.0, 1e-3) << p.transpose();  // still on keyframe 2's wall, in its frame
   }
-  EXPECT_GE(map.stats().rekeys, 1u);
+  // The export placed the voxels with the new poses itself: the re-key waits for the next
+  // keyframe (or rekeyNow()), and does not change what is exported.
+  EXPECT_EQ(map.stats().rekeys, 0u);
+  map.rekeyNow();
+  EXPECT_EQ(map.stats().rekeys, 1u);
+  EXPECT_GT(map.stats().voxels_rekeyed, 0u);
+  const DenseCloud rekeyed = map.exportCloud();
+  ASSERT_EQ(rekeyed.size(), after.size());
+  for (size_t i = 0; i < after.size(); ++i) ASSERT_LT((rekeyed.points_w[i] - after.points_w[i]).norm(), 1e-6);
 }
 
 TEST_F(TwoDisjointViews, KeysFollowLargePoseChangesSoNewViewsMergeNotDuplicate) {
@@ -105,12 +113,14 @@ TEST_F(TwoDisjointViews, KeysFollowLargePoseChangesSoNewViewsMergeNotDuplicate) 
   // from the corrected pose. Stale keys would put all its points in new voxels.
   const SE3 corrected(Mat3::Identity(), Vec3(0.253, 0.117, 0));
   map.updatePoses({{1, corrected}});
-  EXPECT_EQ(map.stats().rekeys, 1u);
+  EXPECT_EQ(map.stats().rekeys, 0u);  // deferred to the next keyframe
   map.addKeyframe(planeKeyframe(camera, 3, 3.0, corrected, Vec3::UnitZ(), 3.0));
+  EXPECT_EQ(map.stats().rekeys, 1u);
   EXPECT_LT(map.voxelCount(), voxels + voxels / 50);
 
   // Tiny updates (below half a voxel of motion) do not re-key.
   map.updatePoses({{1, corrected * SE3(Mat3::Identity(), Vec3(0.001, 0, 0))}});
+  map.rekeyNow();
   EXPECT_EQ(map.stats().rekeys, 1u);
 }
 
@@ -128,6 +138,57 @@ TEST_F(TwoDisjointViews, MinObservationsKeepsOnlyVoxelsSeenByEnoughKeyframes) {
     ASSERT_LT(cloud.points_w[i].x(), 3.0);
     ASSERT_GE(cloud.observations[i], 2u);
     ASSERT_DOUBLE_EQ(cloud.first_seen[i], 1.0);  // first seen by keyframe 1, not 3
+  }
+}
+
+// carve() skips anchors whose voxels cannot be in view; the misses it counts must still be
+// those of checking every voxel. Reference: every stored voxel (worldScans) projected into the
+// carving camera and tested with the same 3x3 rule. Keyframe 1's wall spans x in [-1.9, 1.9],
+// keyframe 2's x in [4.1, 7.9]; the carving camera at x = 3 sees a wall behind (z = 5) over
+// x in [1.1, 4.9], so both anchors are partly in view; turned around, or far off, it sees none.
+TEST_F(TwoDisjointViews, CarveSkipsOnlyAnchorsOutOfViewAndCountsEveryMiss) {
+  DenseMap map(noFilterOptions(), camera);
+  map.addKeyframe(kf1);
+  map.addKeyframe(kf2);
+  const DenseOptions options = map.options();
+  const auto expectedMisses = [&](const cv::Mat& depth, const SE3& T_w_c) {
+    size_t misses = 0;
+    for (const WorldScan& scan : map.worldScans())
+      for (const Vec3& p_w : scan.points_w) {
+        const Vec3 p_c = T_w_c.inverse() * p_w;
+        if (p_c.z() < options.min_depth || p_c.z() > options.max_depth) continue;
+        const Vec2 uv = camera.project(p_c);
+        if (!camera.inImage(uv)) continue;
+        const int x = static_cast<int>(std::lround(uv.x())), y = static_cast<int>(std::lround(uv.y()));
+        if (x < 1 || y < 1 || x >= depth.cols - 1 || y >= depth.rows - 1) continue;
+        bool through = depth.at<float>(y, x) > 0;
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const float d = depth.at<float>(y + dy, x + dx);
+            if (d > 0 && d <= p_c.z() + options.carve_tolerance) through = false;
+          }
+        misses += through ? 1 : 0;
+      }
+    return misses;
+  };
+  const SE3 between(Mat3::Identity(), Vec3(3.0, 0, 0));
+  const SE3 turned(Mat3(Eigen::AngleAxisd(M_PI, Vec3::UnitY())), Vec3(3.0, 0, 0));
+  const SE3 far_off(Mat3::Identity(), Vec3(20.0, 0, 0));
+  const std::vector<SE3> cameras = {between, turned, far_off};
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    const SE3& T_w_c = cameras[c];
+    // The turned camera looks down -z: a wall at z = -2 behind it in its view.
+    const cv::Mat depth = test::planeDepth(camera, T_w_c, Vec3::UnitZ(), c == 1 ? -2.0 : 5.0);
+    const size_t expected = expectedMisses(depth, T_w_c);
+    const size_t missed = map.carve(depth, T_w_c);
+    // float vs double projection may round a pixel differently for a voxel or two
+    EXPECT_NEAR(static_cast<double>(missed), static_cast<double>(expected), 2.0 + expected * 0.002)
+        << "camera at " << T_w_c.translation().transpose();
+    if (c == 0) {
+      EXPECT_GT(expected, 1000u);  // both walls partly seen through
+    } else {
+      EXPECT_EQ(expected, 0u);
+    }
   }
 }
 
