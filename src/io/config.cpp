@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <type_traits>
 #include <vector>
@@ -127,6 +128,17 @@ void readValue(const YAML::Node& node, std::string& out, const std::string& key,
   }
   if (!node.IsScalar()) wrongType(origin, node, key, "a string");
   out = node.Scalar();
+}
+
+// An enum option by name; an unknown name is an error listing the allowed ones and the closest.
+template <NamedEnum E> void readValue(const YAML::Node& node, E& out, const std::string& key, const Origin& origin) {
+  const std::vector<std::string> names = enumNameList<E>();
+  if (!node.IsScalar()) wrongType(origin, node, key, "one of " + joined(names));
+  const std::optional<E> value = enumFromName<E>(node.Scalar());
+  if (!value)
+    throw ConfigError(origin.at(node) + ": config key " + key + " = '" + node.Scalar() + "' is not one of " +
+                      joined(names) + ": did you mean '" + closest(node.Scalar(), names) + "'?");
+  out = *value;
 }
 
 template <std::size_t N>
@@ -337,7 +349,12 @@ nlohmann::json optionsToJson(SystemOptions& options) {
   options.sections([&](auto& section) {
     nlohmann::json& entries = out[std::decay_t<decltype(section)>::kSection];
     entries = nlohmann::json::object();
-    auto write = [&](const char* key, const auto& member) { entries[key] = member; };
+    auto write = [&](const char* key, const auto& member) {
+      if constexpr (NamedEnum<std::decay_t<decltype(member)>>)
+        entries[key] = nameOf(member);  // the name a config file uses, not the enum's number
+      else
+        entries[key] = member;
+    };
     section.fields(write);
   });
   return out;

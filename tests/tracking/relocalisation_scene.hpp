@@ -98,8 +98,8 @@ class RelocalisationScene {
   static SystemOptions makeOptions() {
     SystemOptions o;
     o.camera = sim::syntheticCamera();
-    o.semantic.segmenter = "none";
-    o.dynamic.mode = "off";  // a static room: nothing to check
+    o.semantic.segmenter = SegmenterKind::kNone;
+    o.dynamic.mode = DynamicMode::kOff;  // a static room: nothing to check
     o.dense.enabled = false;
     return o;
   }
