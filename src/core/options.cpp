@@ -51,6 +51,7 @@ void CameraOptions::validate() const {
               "must be positive: raw depth units per metre (5000 for TUM and Bonn, 1000 for mm)");
   requireInRange(s, "depth_factor", depth_factor, 1.0, 1e6);
   requireInRange(s, "fps", fps, 0.1, 1000);
+  requireInRange(s, "depth_baseline", depth_baseline, 0.001, 10.0);
 }
 
 void OrbOptions::validate() const {
@@ -79,10 +80,16 @@ void TrackingOptions::validate() const {
   requireInRange(s, "keyframe_still_translation", keyframe_still_translation, 0.0, keyframe_translation);
   requireInRange(s, "keyframe_still_rotation_deg", keyframe_still_rotation_deg, 0.0, keyframe_rotation_deg);
   requireInRange(s, "local_map_keyframes", local_map_keyframes, 1, 1000);
-  requireInRange(s, "depth_baseline", depth_baseline, 0.001, 10.0);
   requireInRange(s, "predict_through_loss_s", predict_through_loss_s, 0.0, 5.0);
   requireInRange(s, "crowded_view_share", crowded_view_share, 0.0, 1.0);
   requireInRange(s, "crowded_keyframe_spacing", crowded_keyframe_spacing, 0, max_frames_between_keyframes);
+}
+
+void MatcherOptions::validate() const {
+  const char* s = kSection;
+  requireInRange(s, "max_distance", max_distance, 0, 256);
+  requireInRange(s, "strict_distance", strict_distance, 0, max_distance);
+  requireInRange(s, "ratio", ratio, 0.1, 1.0);
 }
 
 void MappingOptions::validate() const {
@@ -213,6 +220,7 @@ void SystemOptions::validate() const {
   camera.validate();
   orb.validate();
   tracking.validate();
+  matching.validate();
   mapping.validate();
   dynamic.validate();
   semantic.validate();

@@ -89,11 +89,17 @@ struct CameraOptions {
   std::array<double, 5> distortion{0, 0, 0, 0, 0};  // k1 k2 p1 p2 k3 (OpenCV order)
   double depth_factor = 5000.0;  // raw 16-bit depth value per metre (TUM/Bonn: 5000)
   double fps = 30.0;
+  // Depth residuals are expressed as a virtual stereo disparity bf/z (pixels), as for RGB-D
+  // keypoints in the ORB-SLAM2 paper; bf = fx * depth_baseline (Kinect-like sensors: ~8 cm).
+  double depth_baseline = 0.08;  // metres
+
+  // The virtual stereo baseline times fx (pixel * metres): the one place it is computed.
+  double bf() const { return fx * depth_baseline; }
 
   static constexpr const char* kSection = "camera";
   template <class V> void fields(V& v) {
     v("fx", fx); v("fy", fy); v("cx", cx); v("cy", cy); v("width", width); v("height", height);
-    v("distortion", distortion); v("depth_factor", depth_factor); v("fps", fps);
+    v("distortion", distortion); v("depth_factor", depth_factor); v("fps", fps); v("depth_baseline", depth_baseline);
   }
   void validate() const;
 };
@@ -136,9 +142,6 @@ struct TrackingOptions {
   double keyframe_still_translation = 0.02;  // metres
   double keyframe_still_rotation_deg = 2.0;  // degrees
   int local_map_keyframes = 40;            // co-visible keyframes in the local map
-  // Depth residuals are expressed as a virtual stereo disparity bf/z (pixels), as for RGB-D
-  // keypoints in the ORB-SLAM2 paper; bf = fx * depth_baseline (Kinect-like sensors: ~8 cm).
-  double depth_baseline = 0.08;            // metres
   // Also try the still-camera prediction beside the constant-velocity one and keep the better
   // supported. Meant for crowds walking past a camera that stops (the velocity prediction can lock
   // onto them); off by default: on Bonn crowd it helped (ATE 0.55 -> 0.23-0.38 m) but not to the
@@ -173,11 +176,27 @@ struct TrackingOptions {
     v("keyframe_translation", keyframe_translation); v("keyframe_rotation_deg", keyframe_rotation_deg);
     v("keyframe_still_translation", keyframe_still_translation);
     v("keyframe_still_rotation_deg", keyframe_still_rotation_deg);
-    v("local_map_keyframes", local_map_keyframes); v("depth_baseline", depth_baseline);
+    v("local_map_keyframes", local_map_keyframes);
     v("still_camera_hypothesis", still_camera_hypothesis); v("compensate_depth_delay", compensate_depth_delay);
     v("predict_through_loss_s", predict_through_loss_s); v("crowded_view_share", crowded_view_share);
     v("search_last_pose_when_lost", search_last_pose_when_lost);
     v("crowded_keyframe_spacing", crowded_keyframe_spacing);
+  }
+  void validate() const;
+};
+
+// ORB matching by projection and descriptor (matching/matcher.hpp) in tracking, local mapping and
+// loop closing. Depth agreement is judged in pixels of virtual disparity, with the camera's bf().
+struct MatcherOptions {
+  int max_distance = 100;     // Hamming distance accepted for a match
+  int strict_distance = 50;   // for matches without geometric guidance
+  double ratio = 0.8;         // best / second-best (different features) must be below this
+  bool check_orientation = true;
+
+  static constexpr const char* kSection = "matching";
+  template <class V> void fields(V& v) {
+    v("max_distance", max_distance); v("strict_distance", strict_distance); v("ratio", ratio);
+    v("check_orientation", check_orientation);
   }
   void validate() const;
 };
@@ -516,6 +535,7 @@ struct SystemOptions {
   CameraOptions camera;
   OrbOptions orb;
   TrackingOptions tracking;
+  MatcherOptions matching;
   MappingOptions mapping;
   DynamicOptions dynamic;
   SemanticOptions semantic;
@@ -527,7 +547,7 @@ struct SystemOptions {
   BagOptions bag;
 
   template <class F> void sections(F&& f) {
-    f(camera); f(orb); f(tracking); f(mapping); f(dynamic); f(semantic); f(dense); f(loop); f(relocalisation); f(atlas);
+    f(camera); f(orb); f(tracking); f(matching); f(mapping); f(dynamic); f(semantic); f(dense); f(loop); f(relocalisation); f(atlas);
     f(plausibility); f(bag);
   }
   void validate() const;

@@ -185,6 +185,14 @@ struct SectionReader {
   }
 };
 
+// Keys that moved to another section: an old config is told where the key is now (rather than
+// "did you mean" a key of the old section).
+struct MovedKey {
+  const char* old_key;
+  const char* new_key;
+};
+constexpr MovedKey kMovedKeys[] = {{"tracking.depth_baseline", "camera.depth_baseline"}};
+
 // Reads one section's YAML map into its options struct, rejecting unknown keys.
 template <class Section> void readSection(const YAML::Node& map, Section& section, const Origin& origin) {
   const std::string name = Section::kSection;
@@ -195,9 +203,13 @@ template <class Section> void readSection(const YAML::Node& map, Section& sectio
   const std::vector<std::string> known = keysOf(section);
   for (const auto& item : map) {
     const std::string key = keyName(item.first, origin, name);
-    if (std::find(known.begin(), known.end(), key) == known.end())
-      throw ConfigError(origin.at(item.first) + ": unknown config key " + name + "." + key + ": did you mean " + name +
-                        "." + closest(key, known) + "? (keys of " + name + ": " + joined(known) + ")");
+    if (std::find(known.begin(), known.end(), key) != known.end()) continue;
+    for (const MovedKey& moved : kMovedKeys)
+      if (name + "." + key == moved.old_key)
+        throw ConfigError(origin.at(item.first) + ": config key " + moved.old_key + " is now " + moved.new_key +
+                          ": move it there");
+    throw ConfigError(origin.at(item.first) + ": unknown config key " + name + "." + key + ": did you mean " + name +
+                      "." + closest(key, known) + "? (keys of " + name + ": " + joined(known) + ")");
   }
   SectionReader reader{map, name, origin};
   section.fields(reader);

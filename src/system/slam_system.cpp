@@ -392,7 +392,7 @@ void SlamSystem::finish(const FinishControl& control) {
   // After a failed worker the map may be half-updated: no final BA on it.
   if (options_.mapping.final_global_ba && !worker_failed && stage("final_ba") && !aborted()) {
     optim::BundleAdjustmentOptions ba;
-    ba.bf = camera_.fx() * options_.tracking.depth_baseline;
+    ba.bf = camera_.bf();
     ba.iterations = options_.mapping.global_ba_iterations;
     ba.threads = 2;  // nothing else runs now but the dense thread finishing its queue
     final_ba_ = optim::globalBundleAdjustment(map_, camera_, ba, control.abort);

@@ -50,10 +50,10 @@ void keepUnverifiedMaskedFeaturesOut(map::Frame& frame) {
 
 Tracker::Tracker(const SystemOptions& options, const PinholeCamera& camera, map::Map& map,
                  const place::KeyframeDatabase* database)
-    : options_(options), camera_(camera), map_(map), bf_(camera.fx() * options.tracking.depth_baseline) {
+    : options_(options), camera_(camera), map_(map), bf_(camera.bf()) {
   if (database != nullptr && options.relocalisation.enabled)
     relocaliser_.emplace(options.relocalisation, camera_, map_, *database, bf_);
-  matcher_options_.bf = bf_;
+  matcher_options_ = options.matching;
   stage1_enabled_ = stage2_enabled_ = usesDepthChecks(options.dynamic.mode);
 }
 

@@ -117,6 +117,15 @@ TEST(Options, ModeNamesRoundTrip) {
   EXPECT_FALSE(usesDepthChecks(DynamicMode::kOff) || usesDepthChecks(DynamicMode::kSemantic));
 }
 
+TEST(Options, StereoBaselineComesFromTheCamera) {
+  SystemOptions o = validDefaults();
+  o.camera.depth_baseline = 0.075;
+  EXPECT_DOUBLE_EQ(o.camera.bf(), 525 * 0.075);
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.camera.depth_baseline = 0; }, "camera.depth_baseline");
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.matching.strict_distance = 200; }, "matching.strict_distance");
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.matching.ratio = 0; }, "matching.ratio");
+}
+
 TEST(Options, MethodThresholdsAreTheDefaults) {
   // DeS-SLAM's stage thresholds (12 % and 8 %) and the TUM/Bonn depth factor.
   const SystemOptions o;

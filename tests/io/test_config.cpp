@@ -150,6 +150,17 @@ TEST(Config, BadValueFailsValidationNamingFileAndKey) {
   EXPECT_CONTAINS(mode, "off, semantic, geometric, full");
 }
 
+TEST(Config, MovedKeySaysWhereItIsNow) {
+  SystemOptions o = loadConfig(preset("tum_fr1.yaml"));
+  const std::string moved = configErrorOf([&] { applyOverride(o, "tracking.depth_baseline=0.1"); });
+  EXPECT_CONTAINS(moved, "tracking.depth_baseline is now camera.depth_baseline");
+  applyOverride(o, "camera.depth_baseline=0.1");
+  EXPECT_DOUBLE_EQ(o.camera.bf(), 517.306408 * 0.1);
+  applyOverride(o, "matching.ratio=0.7");
+  EXPECT_DOUBLE_EQ(o.matching.ratio, 0.7);
+  EXPECT_EQ(optionsToJson(o)["matching"]["ratio"], 0.7);
+}
+
 // Every mode option is read by name: an unknown name lists the allowed ones and the closest, in a
 // file and on the command line; a known name sets the enum.
 TEST(Config, ModeNamesAreReadAndUnknownOnesListTheAllowedValues) {

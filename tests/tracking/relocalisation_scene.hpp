@@ -83,7 +83,7 @@ class RelocalisationScene {
   Relocaliser relocaliser() const {
     return Relocaliser(options_.relocalisation, camera_, map_, database_, bf());
   }
-  double bf() const { return camera_.fx() * options_.tracking.depth_baseline; }
+  double bf() const { return camera_.bf(); }
   bool allTracked() const { return all_tracked_; }
   SE3 lastTrackedPose() const { return last_tracked_T_c_w_; }
   const place::KeyframeDatabase& database() const { return database_; }
