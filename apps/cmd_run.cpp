@@ -304,7 +304,7 @@ int runSequence(const RunArgs& args) {
   io::ConfigForInput config = io::loadConfigForInput(args.config);
   SystemOptions& options = config.options;
   for (const std::string& assignment : args.overrides) io::applyOverride(options, assignment);
-  if (!args.dynamic_mode.empty()) options.dynamic.mode = args.dynamic_mode;
+  if (!args.dynamic_mode.empty()) io::applyOverride(options, "dynamic.mode=" + args.dynamic_mode);
   // Intrinsics from the input (a bag's camera_info) only when neither the config nor --set gives them.
   const CameraOptions& given = options.camera;
   const bool intrinsics_from_input =
@@ -580,7 +580,7 @@ void registerRunCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--dynamic", args->dynamic_mode,
                   "Dynamic-feature removal: off | semantic | geometric | full (default: config, full)")
-      ->check(CLI::IsMember({"off", "semantic", "geometric", "full"}));
+      ->check(CLI::IsMember(enumNameList<DynamicMode>()));
   cmd->add_option("--debug-images", args->debug_images,
                   "Write each frame with its mask and features coloured static/stage-1/stage-2 here");
   cmd->add_option("--map-color", args->map_color, "Dense map colours: rgb | semantic")

@@ -70,7 +70,7 @@ desslam::semantic::Segmenter* segmenter(const std::string& backend, int threads)
   auto& slot = cache[{backend, threads}];
   if (!slot) {
     desslam::SemanticOptions options;
-    options.backend = backend;
+    options.backend = *desslam::enumFromName<desslam::SegmentationBackend>(backend);
     options.threads = threads;
     if (options.model_path.empty())
       options.model_path = (sharedDir() / "models" / desslam::semantic::kDeepLabModelFile).string();

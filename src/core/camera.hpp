@@ -23,6 +23,8 @@ class PinholeCamera {
   int width() const { return options_.width; }
   int height() const { return options_.height; }
   double depthFactor() const { return options_.depth_factor; }
+  double depthBaseline() const { return options_.depth_baseline; }  // metres
+  double bf() const { return options_.bf(); }  // virtual stereo baseline times fx (pixel * metres)
   bool hasDistortion() const { return has_distortion_; }
   const CameraOptions& options() const { return options_; }
 

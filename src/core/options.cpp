@@ -51,6 +51,7 @@ void CameraOptions::validate() const {
               "must be positive: raw depth units per metre (5000 for TUM and Bonn, 1000 for mm)");
   requireInRange(s, "depth_factor", depth_factor, 1.0, 1e6);
   requireInRange(s, "fps", fps, 0.1, 1000);
+  requireInRange(s, "depth_baseline", depth_baseline, 0.001, 10.0);
 }
 
 void OrbOptions::validate() const {
@@ -79,10 +80,16 @@ void TrackingOptions::validate() const {
   requireInRange(s, "keyframe_still_translation", keyframe_still_translation, 0.0, keyframe_translation);
   requireInRange(s, "keyframe_still_rotation_deg", keyframe_still_rotation_deg, 0.0, keyframe_rotation_deg);
   requireInRange(s, "local_map_keyframes", local_map_keyframes, 1, 1000);
-  requireInRange(s, "depth_baseline", depth_baseline, 0.001, 10.0);
   requireInRange(s, "predict_through_loss_s", predict_through_loss_s, 0.0, 5.0);
   requireInRange(s, "crowded_view_share", crowded_view_share, 0.0, 1.0);
   requireInRange(s, "crowded_keyframe_spacing", crowded_keyframe_spacing, 0, max_frames_between_keyframes);
+}
+
+void MatcherOptions::validate() const {
+  const char* s = kSection;
+  requireInRange(s, "max_distance", max_distance, 0, 256);
+  requireInRange(s, "strict_distance", strict_distance, 0, max_distance);
+  requireInRange(s, "ratio", ratio, 0.1, 1.0);
 }
 
 void MappingOptions::validate() const {
@@ -95,8 +102,6 @@ void MappingOptions::validate() const {
 
 void DynamicOptions::validate() const {
   const char* s = kSection;
-  requireThat(mode == "off" || mode == "semantic" || mode == "geometric" || mode == "full", s, "mode",
-              "'" + mode + "' is not one of off, semantic, geometric, full");
   requireInRange(s, "stage1_threshold", stage1_threshold, 0.0, 10.0);
   requireInRange(s, "stage2_threshold", stage2_threshold, 0.0, 10.0);
   requireInRange(s, "mask_dilation_px", mask_dilation_px, 0, 100);
@@ -107,8 +112,6 @@ void DynamicOptions::validate() const {
   requireInRange(s, "stage1_search_radius_px", stage1_search_radius_px, 1.0, 200.0);
   requireInRange(s, "stage1_max_descriptor_distance", stage1_max_descriptor_distance, 0, 256);
   requireInRange(s, "stage1_match_ratio", stage1_match_ratio, 0.1, 1.0);
-  requireThat(stage1_unmatched_policy == "keep" || stage1_unmatched_policy == "drop", s, "stage1_unmatched_policy",
-              "'" + stage1_unmatched_policy + "' is not one of keep, drop");
   requireInRange(s, "stage2_keyframes", stage2_keyframes, 1, 50);
   requireInRange(s, "stage1_min_interval_s", stage1_min_interval_s, 0.0, 10.0);
   requireInRange(s, "stage1_max_reprojection_px", stage1_max_reprojection_px, 0.1, 1000.0);
@@ -117,11 +120,7 @@ void DynamicOptions::validate() const {
 
 void SemanticOptions::validate() const {
   const char* s = kSection;
-  requireThat(segmenter == "deeplab" || segmenter == "mask_dir" || segmenter == "none", s, "segmenter",
-              "'" + segmenter + "' is not one of deeplab, mask_dir, none");
-  requireThat(backend == "opencv" || backend == "xnnpack", s, "backend",
-              "'" + backend + "' is not one of opencv, xnnpack");
-  requireThat(segmenter != "mask_dir" || !mask_dir.empty(), s, "mask_dir",
+  requireThat(segmenter != SegmenterKind::kMaskDir || !mask_dir.empty(), s, "mask_dir",
               "segmenter is mask_dir but no mask_dir is given");
   requireThat(!dynamic_classes.empty(), s, "dynamic_classes", "needs at least one class id (15 = person)");
   for (int c : dynamic_classes) requireInRange(s, "dynamic_classes", c, 0, 255);
@@ -221,6 +220,7 @@ void SystemOptions::validate() const {
   camera.validate();
   orb.validate();
   tracking.validate();
+  matching.validate();
   mapping.validate();
   dynamic.validate();
   semantic.validate();

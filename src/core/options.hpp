@@ -6,7 +6,10 @@
 #pragma once
 
 #include <array>
+#include <optional>
 #include <string>
+#include <string_view>
+#include <type_traits>
 #include <vector>
 
 #include "core/error.hpp"
@@ -18,17 +21,85 @@ void requireInRange(const char* section, const char* key, double value, double l
 // Throws ConfigError "<section>.<key>: <message>" unless ok.
 void requireThat(bool ok, const char* section, const char* key, const std::string& message);
 
+// Options whose value is one of a few names (dynamic.mode: off | semantic | geometric | full) are
+// enum classes. Each lists its names once, in a function enumNames(E) beside the enum (found by
+// argument-dependent lookup): the YAML reader parses them (an unknown name is an error listing the
+// allowed ones), report.json writes them, and nothing else compares strings.
+template <class E> struct EnumName {
+  E value;
+  const char* name;
+};
+template <class E>
+concept NamedEnum = std::is_enum_v<E> && requires { enumNames(E{}); };
+
+template <NamedEnum E> const char* nameOf(E value) {
+  for (const auto& entry : enumNames(E{}))
+    if (entry.value == value) return entry.name;
+  return "?";  // not reachable for a value the enum lists
+}
+template <NamedEnum E> std::optional<E> enumFromName(std::string_view name) {
+  for (const auto& entry : enumNames(E{}))
+    if (name == entry.name) return entry.value;
+  return std::nullopt;
+}
+template <NamedEnum E> std::vector<std::string> enumNameList() {
+  std::vector<std::string> names;
+  for (const auto& entry : enumNames(E{})) names.emplace_back(entry.name);
+  return names;
+}
+
+// dynamic.mode: which of DeS-SLAM's dynamic-scene stages run.
+enum class DynamicMode {
+  kOff,        // plain RGB-D SLAM
+  kSemantic,   // every feature in the (person) mask is dropped
+  kGeometric,  // depth checks (stages 1 and 2) on all features, no mask
+  kFull,       // mask + stage 1 + stage 2
+};
+constexpr std::array<EnumName<DynamicMode>, 4> enumNames(DynamicMode) {
+  return {{{DynamicMode::kOff, "off"}, {DynamicMode::kSemantic, "semantic"},
+           {DynamicMode::kGeometric, "geometric"}, {DynamicMode::kFull, "full"}}};
+}
+// Whether the mode uses the semantic mask / the depth checks (stage 1 and 2).
+constexpr bool usesMask(DynamicMode mode) { return mode == DynamicMode::kSemantic || mode == DynamicMode::kFull; }
+constexpr bool usesDepthChecks(DynamicMode mode) {
+  return mode == DynamicMode::kGeometric || mode == DynamicMode::kFull;
+}
+
+// dynamic.stage1_unmatched_policy: what stage 1 does with masked features it cannot check.
+enum class UnmatchedPolicy { kKeep, kDrop };
+constexpr std::array<EnumName<UnmatchedPolicy>, 2> enumNames(UnmatchedPolicy) {
+  return {{{UnmatchedPolicy::kKeep, "keep"}, {UnmatchedPolicy::kDrop, "drop"}}};
+}
+
+// semantic.segmenter: where the masks come from.
+enum class SegmenterKind { kDeepLab, kMaskDir, kNone };
+constexpr std::array<EnumName<SegmenterKind>, 3> enumNames(SegmenterKind) {
+  return {{{SegmenterKind::kDeepLab, "deeplab"}, {SegmenterKind::kMaskDir, "mask_dir"}, {SegmenterKind::kNone, "none"}}};
+}
+
+// semantic.backend: the inference library of the deeplab segmenter.
+enum class SegmentationBackend { kOpenCv, kXnnpack };
+constexpr std::array<EnumName<SegmentationBackend>, 2> enumNames(SegmentationBackend) {
+  return {{{SegmentationBackend::kOpenCv, "opencv"}, {SegmentationBackend::kXnnpack, "xnnpack"}}};
+}
+
 struct CameraOptions {
   double fx = 0, fy = 0, cx = 0, cy = 0;
   int width = 640, height = 480;
   std::array<double, 5> distortion{0, 0, 0, 0, 0};  // k1 k2 p1 p2 k3 (OpenCV order)
   double depth_factor = 5000.0;  // raw 16-bit depth value per metre (TUM/Bonn: 5000)
   double fps = 30.0;
+  // Depth residuals are expressed as a virtual stereo disparity bf/z (pixels), as for RGB-D
+  // keypoints in the ORB-SLAM2 paper; bf = fx * depth_baseline (Kinect-like sensors: ~8 cm).
+  double depth_baseline = 0.08;  // metres
+
+  // The virtual stereo baseline times fx (pixel * metres): the one place it is computed.
+  double bf() const { return fx * depth_baseline; }
 
   static constexpr const char* kSection = "camera";
   template <class V> void fields(V& v) {
     v("fx", fx); v("fy", fy); v("cx", cx); v("cy", cy); v("width", width); v("height", height);
-    v("distortion", distortion); v("depth_factor", depth_factor); v("fps", fps);
+    v("distortion", distortion); v("depth_factor", depth_factor); v("fps", fps); v("depth_baseline", depth_baseline);
   }
   void validate() const;
 };
@@ -71,9 +142,6 @@ struct TrackingOptions {
   double keyframe_still_translation = 0.02;  // metres
   double keyframe_still_rotation_deg = 2.0;  // degrees
   int local_map_keyframes = 40;            // co-visible keyframes in the local map
-  // Depth residuals are expressed as a virtual stereo disparity bf/z (pixels), as for RGB-D
-  // keypoints in the ORB-SLAM2 paper; bf = fx * depth_baseline (Kinect-like sensors: ~8 cm).
-  double depth_baseline = 0.08;            // metres
   // Also try the still-camera prediction beside the constant-velocity one and keep the better
   // supported. Meant for crowds walking past a camera that stops (the velocity prediction can lock
   // onto them); off by default: on Bonn crowd it helped (ATE 0.55 -> 0.23-0.38 m) but not to the
@@ -108,11 +176,27 @@ struct TrackingOptions {
     v("keyframe_translation", keyframe_translation); v("keyframe_rotation_deg", keyframe_rotation_deg);
     v("keyframe_still_translation", keyframe_still_translation);
     v("keyframe_still_rotation_deg", keyframe_still_rotation_deg);
-    v("local_map_keyframes", local_map_keyframes); v("depth_baseline", depth_baseline);
+    v("local_map_keyframes", local_map_keyframes);
     v("still_camera_hypothesis", still_camera_hypothesis); v("compensate_depth_delay", compensate_depth_delay);
     v("predict_through_loss_s", predict_through_loss_s); v("crowded_view_share", crowded_view_share);
     v("search_last_pose_when_lost", search_last_pose_when_lost);
     v("crowded_keyframe_spacing", crowded_keyframe_spacing);
+  }
+  void validate() const;
+};
+
+// ORB matching by projection and descriptor (matching/matcher.hpp) in tracking, local mapping and
+// loop closing. Depth agreement is judged in pixels of virtual disparity, with the camera's bf().
+struct MatcherOptions {
+  int max_distance = 100;     // Hamming distance accepted for a match
+  int strict_distance = 50;   // for matches without geometric guidance
+  double ratio = 0.8;         // best / second-best (different features) must be below this
+  bool check_orientation = true;
+
+  static constexpr const char* kSection = "matching";
+  template <class V> void fields(V& v) {
+    v("max_distance", max_distance); v("strict_distance", strict_distance); v("ratio", ratio);
+    v("check_orientation", check_orientation);
   }
   void validate() const;
 };
@@ -138,7 +222,7 @@ struct MappingOptions {
 };
 
 struct DynamicOptions {
-  std::string mode = "full";        // off | semantic | geometric | full
+  DynamicMode mode = DynamicMode::kFull;
   double stage1_threshold = 0.12;   // |1 - d_proj/z_k| above this => dynamic (tracking)
   double stage2_threshold = 0.08;   // |z_r - d_r| / z_r above this => residual dynamic (keyframes)
   // The semantic mask is dilated by this radius. DeepLab labels a 257x257 image (one label per
@@ -176,7 +260,7 @@ struct DynamicOptions {
   // Masked features without depth or without a depth-backed match in frame k-1: "keep" trusts
   // them, "drop" treats them as dynamic. On a person moving towards the camera most features find
   // no trustworthy match (synthetic test: ~2/3), so "keep" leaves many of them in.
-  std::string stage1_unmatched_policy = "drop";
+  UnmatchedPolicy stage1_unmatched_policy = UnmatchedPolicy::kDrop;
   int stage2_keyframes = 5;  // at most this many co-visible keyframes vote per map point
   // Stage 1 compares frame k with the newest tracked frame at least this old (0: always k-1).
   // At 30 Hz a walking person changes depth by ~2 % between consecutive frames, far below the
@@ -216,11 +300,11 @@ struct DynamicOptions {
 };
 
 struct SemanticOptions {
-  std::string segmenter = "deeplab";  // deeplab | mask_dir | none
+  SegmenterKind segmenter = SegmenterKind::kDeepLab;
   // Inference backend of the deeplab segmenter: xnnpack (XNNPACK: the same model file and
   // masks as OpenCV dnn, 4.7-6.4x faster on one thread, so real-time masks are fresher; needs
   // libxnnpack-dev at build time) | opencv (OpenCV dnn, the reference).
-  std::string backend = "xnnpack";
+  SegmentationBackend backend = SegmentationBackend::kXnnpack;
   // Empty: looked for in $DESSLAM_SHARED_DIR/models, ../shared/models, <exe>/../../shared/models
   // (semantic::resolveModelPath) as deeplabv3_mnv2_voc_257.onnx.
   std::string model_path;
@@ -454,6 +538,7 @@ struct SystemOptions {
   CameraOptions camera;
   OrbOptions orb;
   TrackingOptions tracking;
+  MatcherOptions matching;
   MappingOptions mapping;
   DynamicOptions dynamic;
   SemanticOptions semantic;
@@ -465,7 +550,7 @@ struct SystemOptions {
   BagOptions bag;
 
   template <class F> void sections(F&& f) {
-    f(camera); f(orb); f(tracking); f(mapping); f(dynamic); f(semantic); f(dense); f(loop); f(relocalisation); f(atlas);
+    f(camera); f(orb); f(tracking); f(matching); f(mapping); f(dynamic); f(semantic); f(dense); f(loop); f(relocalisation); f(atlas);
     f(plausibility); f(bag);
   }
   void validate() const;

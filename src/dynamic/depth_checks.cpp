@@ -129,7 +129,7 @@ Stage1Result runStage1(const Stage1Input& input, const PinholeCamera& camera, co
     r.in_mask.assign(n, 1);  // geometric-only mode: every feature is a candidate
   }
 
-  const bool drop_unchecked = options.stage1_unmatched_policy == "drop";
+  const bool drop_unchecked = options.stage1_unmatched_policy == UnmatchedPolicy::kDrop;
   const SE3 T_km1_k = input.T_k_km1.inverse();
   for (size_t i = 0; i < n; ++i) {
     if (!r.in_mask[i]) continue;

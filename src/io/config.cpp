@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <type_traits>
 #include <vector>
@@ -129,6 +130,17 @@ void readValue(const YAML::Node& node, std::string& out, const std::string& key,
   out = node.Scalar();
 }
 
+// An enum option by name; an unknown name is an error listing the allowed ones and the closest.
+template <NamedEnum E> void readValue(const YAML::Node& node, E& out, const std::string& key, const Origin& origin) {
+  const std::vector<std::string> names = enumNameList<E>();
+  if (!node.IsScalar()) wrongType(origin, node, key, "one of " + joined(names));
+  const std::optional<E> value = enumFromName<E>(node.Scalar());
+  if (!value)
+    throw ConfigError(origin.at(node) + ": config key " + key + " = '" + node.Scalar() + "' is not one of " +
+                      joined(names) + ": did you mean '" + closest(node.Scalar(), names) + "'?");
+  out = *value;
+}
+
 template <std::size_t N>
 void readValue(const YAML::Node& node, std::array<double, N>& out, const std::string& key, const Origin& origin) {
   const std::string expected = "a list of " + std::to_string(N) + " numbers";
@@ -173,6 +185,14 @@ struct SectionReader {
   }
 };
 
+// Keys that moved to another section: an old config is told where the key is now (rather than
+// "did you mean" a key of the old section).
+struct MovedKey {
+  const char* old_key;
+  const char* new_key;
+};
+constexpr MovedKey kMovedKeys[] = {{"tracking.depth_baseline", "camera.depth_baseline"}};
+
 // Reads one section's YAML map into its options struct, rejecting unknown keys.
 template <class Section> void readSection(const YAML::Node& map, Section& section, const Origin& origin) {
   const std::string name = Section::kSection;
@@ -183,9 +203,13 @@ template <class Section> void readSection(const YAML::Node& map, Section& sectio
   const std::vector<std::string> known = keysOf(section);
   for (const auto& item : map) {
     const std::string key = keyName(item.first, origin, name);
-    if (std::find(known.begin(), known.end(), key) == known.end())
-      throw ConfigError(origin.at(item.first) + ": unknown config key " + name + "." + key + ": did you mean " + name +
-                        "." + closest(key, known) + "? (keys of " + name + ": " + joined(known) + ")");
+    if (std::find(known.begin(), known.end(), key) != known.end()) continue;
+    for (const MovedKey& moved : kMovedKeys)
+      if (name + "." + key == moved.old_key)
+        throw ConfigError(origin.at(item.first) + ": config key " + moved.old_key + " is now " + moved.new_key +
+                          ": move it there");
+    throw ConfigError(origin.at(item.first) + ": unknown config key " + name + "." + key + ": did you mean " + name +
+                      "." + closest(key, known) + "? (keys of " + name + ": " + joined(known) + ")");
   }
   SectionReader reader{map, name, origin};
   section.fields(reader);
@@ -337,7 +361,12 @@ nlohmann::json optionsToJson(SystemOptions& options) {
   options.sections([&](auto& section) {
     nlohmann::json& entries = out[std::decay_t<decltype(section)>::kSection];
     entries = nlohmann::json::object();
-    auto write = [&](const char* key, const auto& member) { entries[key] = member; };
+    auto write = [&](const char* key, const auto& member) {
+      if constexpr (NamedEnum<std::decay_t<decltype(member)>>)
+        entries[key] = nameOf(member);  // the name a config file uses, not the enum's number
+      else
+        entries[key] = member;
+    };
     section.fields(write);
   });
   return out;

@@ -46,7 +46,7 @@ LoopCloser::LoopCloser(const SystemOptions& options, const PinholeCamera& camera
       map_(map),
       pause_(pause),
       global_ba_mode_(options.loop.global_ba ? global_ba : GlobalBaMode::kOff),
-      bf_(camera.fx() * options.tracking.depth_baseline),
+      bf_(camera.bf()),
       detector_(options.loop, camera, map, database, options.atlas) {}
 
 LoopCloser::~LoopCloser() { abortGlobalBa(); }
@@ -172,8 +172,7 @@ size_t LoopCloser::replaceDuplicatedPoints(const LoopMatch& match, const std::ve
       for (map::MapPoint* p : g->points)
         if (p != nullptr && !p->bad && unique.insert(p).second) loop_points.push_back(p);
   }
-  matching::MatcherOptions matcher;
-  matcher.bf = bf_;
+  const MatcherOptions& matcher = options_.matching;
   for (map::Keyframe* k : connected)
     fused += static_cast<size_t>(matching::fuseIntoKeyframe(map_, k, loop_points, camera_, kFuseRadiusPx, matcher));
   return fused;

@@ -100,7 +100,7 @@ enum class GlobalBaMode { kThread, kInline, kOff };
 class LoopCloser {
  public:
   // pause may be null (no local-mapping thread, e.g. deterministic mode where mapping runs
-  // inline on the caller's thread). options.loop and options.tracking.depth_baseline are used.
+  // inline on the caller's thread). options.loop, options.matching and options.atlas are used.
   LoopCloser(const SystemOptions& options, const PinholeCamera& camera, map::Map& map, place::KeyframeDatabase& database,
              mapping::MappingPause* pause, GlobalBaMode global_ba = GlobalBaMode::kThread);
   ~LoopCloser();  // aborts and joins a running global BA

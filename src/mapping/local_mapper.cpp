@@ -53,8 +53,8 @@ Vec3 triangulate(const Vec3& xn1, const Vec3& xn2, const SE3& T1, const SE3& T2)
 
 LocalMapper::LocalMapper(const SystemOptions& options, const PinholeCamera& camera, map::Map& map,
                          place::KeyframeDatabase* database)
-    : options_(options), camera_(camera), map_(map), database_(database), bf_(camera.fx() * options.tracking.depth_baseline) {
-  matcher_options_.bf = bf_;
+    : options_(options), camera_(camera), map_(map), database_(database), bf_(camera.bf()) {
+  matcher_options_ = options.matching;
 }
 
 void LocalMapper::process(map::Keyframe* kf, const std::atomic<bool>* abort_ba) {
@@ -137,7 +137,7 @@ void LocalMapper::triangulateNewPoints(map::Keyframe* kf) {
       const SE3 T2 = nb->T_c_w;
       const Vec3 c2 = nb->center();
       // Too short a baseline triangulates nothing depth did not already give.
-      if ((c2 - c1).norm() < options_.tracking.depth_baseline) continue;
+      if ((c2 - c1).norm() < camera_.depthBaseline()) continue;
       std::vector<int> free2;
       for (size_t i = 0; i < f2.size(); ++i)
         if (nb->points[i] == nullptr && nb->usable(i)) free2.push_back(static_cast<int>(i));
@@ -160,7 +160,7 @@ void LocalMapper::triangulateNewPoints(map::Keyframe* kf) {
         const Vec3 ray1 = T1.rotation().transpose() * xn1;
         const Vec3 ray2 = T2.rotation().transpose() * xn2;
         const double cos_rays = ray1.dot(ray2) / (ray1.norm() * ray2.norm());
-        const double b = options_.tracking.depth_baseline;
+        const double b = camera_.depthBaseline();
         const double cos_depth1 = f1.hasDepth(i1) ? std::cos(2 * std::atan2(b / 2, f1.depth[i1])) : 2.0;
         const double cos_depth2 = f2.hasDepth(i2) ? std::cos(2 * std::atan2(b / 2, f2.depth[i2])) : 2.0;
         const double cos_depth = std::min(cos_depth1, cos_depth2);

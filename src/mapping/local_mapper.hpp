@@ -61,7 +61,7 @@ class LocalMapper {
   map::Map& map_;
   place::KeyframeDatabase* database_;
   double bf_;
-  matching::MatcherOptions matcher_options_;
+  MatcherOptions matcher_options_;
   std::vector<map::MapPoint*> recent_points_;  // created recently, still on probation
   LocalMappingStats stats_;
 };

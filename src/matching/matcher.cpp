@@ -52,7 +52,7 @@ int searchByProjection(map::Frame& frame, const PinholeCamera& camera,
       if (!frame.usable(i) || frame.matches[i].matched()) continue;
       if (features.hasDepth(i)) {
         // Depth must agree as well: compare virtual disparities, in pixels like the window.
-        const double disparity_error = std::abs(options.bf / p_c.z() - options.bf / features.depth[i]);
+        const double disparity_error = std::abs(camera.bf() / p_c.z() - camera.bf() / features.depth[i]);
         if (disparity_error > c.radius) continue;
       }
       const int d = feature::descriptorDistance(c.descriptor, features.descriptor(i));
@@ -163,7 +163,7 @@ int fuseIntoKeyframe(map::Map& map, map::Keyframe* kf, const std::vector<map::Ma
       double chi2 = e.squaredNorm();
       double threshold = kChi2Mono;
       if (features.hasDepth(i)) {
-        const double er = options.bf / p_c.z() - options.bf / features.depth[i];
+        const double er = camera.bf() / p_c.z() - camera.bf() / features.depth[i];
         chi2 += er * er;
         threshold = kChi2Rgbd;
       }

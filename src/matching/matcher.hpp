@@ -12,14 +12,6 @@
 
 namespace desslam::matching {
 
-struct MatcherOptions {
-  int max_distance = 100;     // Hamming distance accepted for a match
-  int strict_distance = 50;   // for matches without geometric guidance
-  double ratio = 0.8;         // best / second-best (different features) must be below this
-  bool check_orientation = true;
-  double bf = 40.0;           // virtual stereo baseline x fx: depth agreement in pixels of disparity
-};
-
 // A 3-D point to look for in a frame.
 struct ProjectionCandidate {
   Vec3 p_w;

@@ -11,11 +11,13 @@ namespace desslam::semantic {
 
 bool haveXnnpackBackend() { return DESSLAM_HAVE_XNNPACK != 0; }
 
-std::unique_ptr<Segmenter> makeSegmenter(const SemanticOptions& options) {
-  if (options.segmenter == "none") return nullptr;
-  if (options.segmenter == "deeplab") {
-    if (options.backend == "opencv") return std::make_unique<DeepLabSegmenter>(options);
-    if (options.backend == "xnnpack") {
+namespace {
+
+std::unique_ptr<Segmenter> makeDeepLab(const SemanticOptions& options) {
+  switch (options.backend) {
+    case SegmentationBackend::kOpenCv:
+      return std::make_unique<DeepLabSegmenter>(options);
+    case SegmentationBackend::kXnnpack:
 #if DESSLAM_HAVE_XNNPACK
       return std::make_unique<XnnpackDeepLabSegmenter>(options);
 #else
@@ -24,14 +26,22 @@ std::unique_ptr<Segmenter> makeSegmenter(const SemanticOptions& options) {
           "libxnnpack-dev and libpthreadpool-dev, as scripts/install-and-build.sh does, and "
           "rebuild), or use semantic.backend = opencv");
 #endif
-    }
-    throw ConfigError("config key semantic.backend: '" + options.backend +
-                      "' is not one of opencv, xnnpack");
   }
-  if (options.segmenter == "mask_dir")
-    return std::make_unique<MaskDirectorySegmenter>(options.mask_dir);
-  throw ConfigError("config key semantic.segmenter: '" + options.segmenter +
-                    "' is not one of deeplab, mask_dir, none");
+  throw ConfigError("config key semantic.backend: not one of opencv, xnnpack");  // a value outside the enum
+}
+
+}  // namespace
+
+std::unique_ptr<Segmenter> makeSegmenter(const SemanticOptions& options) {
+  switch (options.segmenter) {
+    case SegmenterKind::kNone:
+      return nullptr;
+    case SegmenterKind::kDeepLab:
+      return makeDeepLab(options);
+    case SegmenterKind::kMaskDir:
+      return std::make_unique<MaskDirectorySegmenter>(options.mask_dir);
+  }
+  throw ConfigError("config key semantic.segmenter: not one of deeplab, mask_dir, none");  // a value outside the enum
 }
 
 }  // namespace desslam::semantic

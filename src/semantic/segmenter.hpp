@@ -27,10 +27,9 @@ class Segmenter {
   virtual std::string name() const = 0;
 };
 
-// Builds the segmenter options.segmenter names: "deeplab" (through options.backend: "opencv"
-// or "xnnpack"), "mask_dir", or nullptr for "none". Throws ConfigError (model missing or wrong,
-// unknown segmenter or backend, xnnpack asked of a build without it) or InputError (mask dir
-// missing).
+// Builds the segmenter options.segmenter names: deeplab (through options.backend: opencv or
+// xnnpack), mask_dir, or nullptr for none. Throws ConfigError (model missing or wrong, xnnpack
+// asked of a build without it) or InputError (mask dir missing).
 std::unique_ptr<Segmenter> makeSegmenter(const SemanticOptions& options);
 
 // Whether this build has the XNNPACK backend (libxnnpack-dev was found by CMake).

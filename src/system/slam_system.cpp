@@ -42,8 +42,6 @@ nlohmann::json summarizeMilliseconds(std::vector<double> values) {
 namespace {
 constexpr int kDynamicFeatureRadius = 12;   // pixels left out of the dense map around a dynamic feature
 
-bool usesMask(const std::string& mode) { return mode == "semantic" || mode == "full"; }
-
 std::unique_ptr<place::KeyframeDatabase> makeKeyframeDatabase(const SystemOptions& options) {
   if (!options.relocalisation.enabled && !options.loop.enabled) return nullptr;
   options.relocalisation.validate();  // names a bad key before the vocabulary is looked for
@@ -73,7 +71,7 @@ SlamSystem::SlamSystem(const SystemOptions& options, const RunSettings& settings
   if (usesMask(options_.dynamic.mode)) {
     std::unique_ptr<semantic::Segmenter> segmenter = semantic::makeSegmenter(options_.semantic);
     if (segmenter == nullptr)
-      throw ConfigError("dynamic.mode = " + options_.dynamic.mode +
+      throw ConfigError(std::string("dynamic.mode = ") + nameOf(options_.dynamic.mode) +
                         " needs masks but semantic.segmenter = none: choose deeplab or mask_dir, or dynamic.mode "
                         "geometric/off");
     semantic_ = std::make_unique<semantic::SemanticThread>(
@@ -93,7 +91,7 @@ SlamSystem::SlamSystem(const SystemOptions& options, const RunSettings& settings
         mapper_, &mapping_pause_, std::move(after_mapping), [this](map::Keyframe* kf) { applyKeyframeMask(kf); });
   }
   // The plain core (dynamic.mode off) has no dynamic-scene handling at all, in the dense map too.
-  if (options_.dynamic.mode == "off") options_.dense.carve_free_space = false;
+  if (options_.dynamic.mode == DynamicMode::kOff) options_.dense.carve_free_space = false;
   if (options_.dense.enabled)
     dense_ = std::make_unique<dense::DenseMappingThread>(
         options_.dense, camera_, settings_.realtime ? QueueFullPolicy::kDropOldest : QueueFullPolicy::kBlock);
@@ -225,7 +223,7 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   for (size_t i = 0; i < frame.features->size(); ++i) stats.features_with_depth += frame.features->hasDepth(i) ? 1 : 0;
   if (!frame.dynamic_mask.empty()) {
     const std::vector<uint8_t> in_mask = dynamic::featuresInMask(*frame.features, frame.dynamic_mask);
-    const bool semantic_only = options_.dynamic.mode == "semantic";
+    const bool semantic_only = options_.dynamic.mode == DynamicMode::kSemantic;
     for (size_t i = 0; i < in_mask.size(); ++i) {
       if (!in_mask[i]) continue;
       ++stats.in_mask;
@@ -394,7 +392,7 @@ void SlamSystem::finish(const FinishControl& control) {
   // After a failed worker the map may be half-updated: no final BA on it.
   if (options_.mapping.final_global_ba && !worker_failed && stage("final_ba") && !aborted()) {
     optim::BundleAdjustmentOptions ba;
-    ba.bf = camera_.fx() * options_.tracking.depth_baseline;
+    ba.bf = camera_.bf();
     ba.iterations = options_.mapping.global_ba_iterations;
     ba.threads = 2;  // nothing else runs now but the dense thread finishing its queue
     final_ba_ = optim::globalBundleAdjustment(map_, camera_, ba, control.abort);
@@ -589,7 +587,7 @@ nlohmann::json SlamSystem::statistics() const {
                    {"map_points", map_.pointCount()}};
   }
   j["atlas"] = atlasJson();
-  j["dynamic"] = {{"mode", options_.dynamic.mode},
+  j["dynamic"] = {{"mode", nameOf(options_.dynamic.mode)},
                   {"features_in_mask", in_mask},
                   {"features_added_outside_mask", added},
                   {"removed_by_mask", semantic_removed},

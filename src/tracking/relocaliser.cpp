@@ -224,9 +224,8 @@ int Relocaliser::searchCovisiblePoints(map::Frame& frame, map::Keyframe* keyfram
   const auto& pyramid = *features.pyramid;
   const int top_level = pyramid.levels() - 1;
   const Vec3 center = frame.T_c_w.inverse().translation();
-  matching::MatcherOptions matcher;
+  MatcherOptions matcher;  // its own ratio; the matching section is for tracking, mapping and loops
   matcher.ratio = kGuidedSearchRatio;
-  matcher.bf = bf_;
   std::shared_lock lock(map_.mutex());
   std::unordered_set<uint64_t> taken;
   for (const map::FeatureMatch& m : frame.matches)

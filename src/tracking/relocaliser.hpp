@@ -45,7 +45,7 @@ struct RelocalisationResult {
 
 class Relocaliser {
  public:
-  // bf: virtual stereo baseline times fx (tracking.depth_baseline * camera.fx) for depth residuals.
+  // bf: virtual stereo baseline times fx (camera.bf(): camera.depth_baseline * camera.fx) for depth residuals.
   // Validates `options` (ConfigError naming relocalisation.<key>).
   Relocaliser(const RelocalisationOptions& options, const PinholeCamera& camera, map::Map& map,
               const place::KeyframeDatabase& database, double bf);

@@ -50,12 +50,11 @@ void keepUnverifiedMaskedFeaturesOut(map::Frame& frame) {
 
 Tracker::Tracker(const SystemOptions& options, const PinholeCamera& camera, map::Map& map,
                  const place::KeyframeDatabase* database)
-    : options_(options), camera_(camera), map_(map), bf_(camera.fx() * options.tracking.depth_baseline) {
+    : options_(options), camera_(camera), map_(map), bf_(camera.bf()) {
   if (database != nullptr && options.relocalisation.enabled)
     relocaliser_.emplace(options.relocalisation, camera_, map_, *database, bf_);
-  matcher_options_.bf = bf_;
-  const std::string& mode = options.dynamic.mode;
-  stage1_enabled_ = stage2_enabled_ = mode == "full" || mode == "geometric";
+  matcher_options_ = options.matching;
+  stage1_enabled_ = stage2_enabled_ = usesDepthChecks(options.dynamic.mode);
 }
 
 TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_backlog) {
@@ -606,7 +605,7 @@ cv::Mat Tracker::halfDepthFor(const map::Frame& frame) const {
 }
 
 void Tracker::applyStage1(map::Frame& frame, TrackOutcome& outcome) {
-  const bool geometric_only = options_.dynamic.mode == "geometric";
+  const bool geometric_only = options_.dynamic.mode == DynamicMode::kGeometric;
   dynamic::Stage1Input input;
   input.current = frame.features.get();
   input.current_depth = &frame.depth;

@@ -120,7 +120,7 @@ class Tracker {
   PinholeCamera camera_;
   map::Map& map_;
   double bf_;
-  matching::MatcherOptions matcher_options_;
+  MatcherOptions matcher_options_;
   bool stage1_enabled_ = false;  // dynamic.mode full or geometric
   bool stage2_enabled_ = false;
 

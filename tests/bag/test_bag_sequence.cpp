@@ -73,8 +73,8 @@ TEST(BagSequence, Fr1XyzClipAsBagGivesTheFoldersDeterministicTrajectory) {
   DESSLAM_REQUIRE_SHARED(clip);
   constexpr size_t kFrames = 40;
   SystemOptions options = io::loadConfig(test::sourceDir() / "config" / "tum_fr1.yaml");
-  options.semantic.segmenter = "none";  // the network is not what is compared, and slow
-  options.dynamic.mode = "geometric";
+  options.semantic.segmenter = SegmenterKind::kNone;  // the network is not what is compared, and slow
+  options.dynamic.mode = DynamicMode::kGeometric;
   options.dense.enabled = false;
 
   const test::TempDir dir;

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -75,12 +76,10 @@ TEST(Options, EachSectionNamesItsKey) {
                          "tracking.keyframe_tracked_ratio");
   EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.mapping.local_ba_iterations = 0; },
                          "mapping.local_ba_iterations");
-  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.dynamic.mode = "everything"; }, "dynamic.mode");
   EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.dynamic.stage1_threshold = -0.1; }, "dynamic.stage1_threshold");
-  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.semantic.segmenter = "yolo"; }, "semantic.segmenter");
   EXPECT_REJECTED_NAMING(
       [](SystemOptions& o) {
-        o.semantic.segmenter = "mask_dir";
+        o.semantic.segmenter = SegmenterKind::kMaskDir;
         o.semantic.mask_dir.clear();
       },
       "semantic.mask_dir");
@@ -90,9 +89,41 @@ TEST(Options, EachSectionNamesItsKey) {
 }
 
 TEST(Options, DynamicModesAreAccepted) {
-  for (const char* mode : {"off", "semantic", "geometric", "full"}) {
-    EXPECT_EQ(errorAfter([&](SystemOptions& o) { o.dynamic.mode = mode; }), "") << mode;
+  for (DynamicMode mode : {DynamicMode::kOff, DynamicMode::kSemantic, DynamicMode::kGeometric, DynamicMode::kFull}) {
+    EXPECT_EQ(errorAfter([&](SystemOptions& o) { o.dynamic.mode = mode; }), "") << nameOf(mode);
   }
+}
+
+// The names a config file uses; each enum value has its own, and each name parses back to it.
+template <class E> void expectNamesRoundTrip(const std::vector<std::string>& expected) {
+  EXPECT_EQ(enumNameList<E>(), expected);
+  for (const std::string& name : expected) {
+    const std::optional<E> value = enumFromName<E>(name);
+    ASSERT_TRUE(value.has_value()) << name;
+    EXPECT_EQ(nameOf(*value), name);
+  }
+  EXPECT_FALSE(enumFromName<E>("").has_value());
+  EXPECT_FALSE(enumFromName<E>(expected.front() + "x").has_value());
+}
+
+TEST(Options, ModeNamesRoundTrip) {
+  expectNamesRoundTrip<DynamicMode>({"off", "semantic", "geometric", "full"});
+  expectNamesRoundTrip<UnmatchedPolicy>({"keep", "drop"});
+  expectNamesRoundTrip<SegmenterKind>({"deeplab", "mask_dir", "none"});
+  expectNamesRoundTrip<SegmentationBackend>({"opencv", "xnnpack"});
+  EXPECT_TRUE(usesMask(DynamicMode::kSemantic) && usesMask(DynamicMode::kFull));
+  EXPECT_FALSE(usesMask(DynamicMode::kOff) || usesMask(DynamicMode::kGeometric));
+  EXPECT_TRUE(usesDepthChecks(DynamicMode::kGeometric) && usesDepthChecks(DynamicMode::kFull));
+  EXPECT_FALSE(usesDepthChecks(DynamicMode::kOff) || usesDepthChecks(DynamicMode::kSemantic));
+}
+
+TEST(Options, StereoBaselineComesFromTheCamera) {
+  SystemOptions o = validDefaults();
+  o.camera.depth_baseline = 0.075;
+  EXPECT_DOUBLE_EQ(o.camera.bf(), 525 * 0.075);
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.camera.depth_baseline = 0; }, "camera.depth_baseline");
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.matching.strict_distance = 200; }, "matching.strict_distance");
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.matching.ratio = 0; }, "matching.ratio");
 }
 
 TEST(Options, MethodThresholdsAreTheDefaults) {

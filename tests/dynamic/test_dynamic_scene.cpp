@@ -99,7 +99,7 @@ TEST(Stage1Scene, BoxWalkingTowardsTheCameraIsFlaggedTheBackgroundIsNot) {
   // A generous dilation puts a wide ring of static background into the mask, to be kept.
   DynamicOptions options;
   options.mask_dilation_px = 30;
-  options.stage1_unmatched_policy = "keep";  // what stage 1 decides, apart from the policy
+  options.stage1_unmatched_policy = UnmatchedPolicy::kKeep;  // what stage 1 decides, apart from the policy
   options.stage1_max_reprojection_px = 1e6;  // the depth residuals alone (image motion: below)
   Tally t;
   for (int a : {6, 8, 10, 12, 14}) fixture.addPair(a, options, t);
@@ -127,7 +127,7 @@ TEST(Stage1Scene, StaticSceneUnderTheMaskKeepsItsFeatures) {
   cv::Mat mask(480, 640, CV_8UC1, cv::Scalar(0));
   mask(cv::Rect(200, 100, 240, 300)).setTo(255);
   DynamicOptions keep;
-  keep.stage1_unmatched_policy = "keep";
+  keep.stage1_unmatched_policy = UnmatchedPolicy::kKeep;
   keep.stage1_max_reprojection_px = 1e6;  // the depth residuals alone
   Tally t;
   for (int a : {4, 20}) fixture.addPair(a, keep, t, mask);
@@ -139,7 +139,7 @@ TEST(Stage1Scene, StaticSceneUnderTheMaskKeepsItsFeatures) {
   // With the image-motion rule (default 4 px) the wrong correspondences that happened to agree in
   // depth go as well; a static scene still keeps the great majority of what stage 1 checked.
   DynamicOptions with_image_motion;
-  with_image_motion.stage1_unmatched_policy = "keep";
+  with_image_motion.stage1_unmatched_policy = UnmatchedPolicy::kKeep;
   Tally u;
   for (int a : {4, 20}) fixture.addPair(a, with_image_motion, u, mask);
   std::printf("with the image-motion rule: %d checked, %d flagged\n", u.background_checked, u.background_flagged);

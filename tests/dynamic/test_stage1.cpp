@@ -212,7 +212,7 @@ Scenario uncheckableScenario() {
 
 TEST(Stage1, UncheckableFeaturesAreKeptUnderPolicyKeep) {
   DynamicOptions keep;
-  keep.stage1_unmatched_policy = "keep";
+  keep.stage1_unmatched_policy = UnmatchedPolicy::kKeep;
   const Stage1Result r = uncheckableScenario().run(keep);
   EXPECT_EQ(r.outcome[0], Stage1Outcome::kUnmatched);
   EXPECT_EQ(r.outcome[1], Stage1Outcome::kNoDepth);
@@ -227,7 +227,7 @@ TEST(Stage1, UncheckableFeaturesAreKeptUnderPolicyKeep) {
 
 TEST(Stage1, UncheckableFeaturesAreRemovedUnderPolicyDrop) {
   DynamicOptions options;
-  options.stage1_unmatched_policy = "drop";
+  options.stage1_unmatched_policy = UnmatchedPolicy::kDrop;
   const Stage1Result r = uncheckableScenario().run(options);
   EXPECT_EQ(r.outcome[0], Stage1Outcome::kUnmatched);  // still reported apart from kDynamic
   EXPECT_EQ(r.dynamic_count, 0);

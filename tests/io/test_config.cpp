@@ -84,7 +84,7 @@ TEST(Config, ReadsEveryValueType) {
   const SystemOptions o = loadConfig(file);
   EXPECT_DOUBLE_EQ(o.camera.distortion[2], 0.001);
   EXPECT_FALSE(o.mapping.local_ba);
-  EXPECT_EQ(o.dynamic.mode, "geometric");
+  EXPECT_EQ(o.dynamic.mode, DynamicMode::kGeometric);
   EXPECT_DOUBLE_EQ(o.dynamic.stage1_threshold, 0.15);
   EXPECT_EQ(o.semantic.dynamic_classes, (std::vector<int>{15, 12}));
   EXPECT_TRUE(o.semantic.model_path.empty());
@@ -144,8 +144,57 @@ TEST(Config, BadValueFailsValidationNamingFileAndKey) {
   EXPECT_CONTAINS(range, "tracking.min_inliers");
 
   const std::string mode = configErrorOf([&] { loadConfig(dir.write("m.yaml", std::string(kCamera) + "dynamic:\n  mode: magic\n")); });
+  EXPECT_CONTAINS(mode, "m.yaml:7");
   EXPECT_CONTAINS(mode, "dynamic.mode");
   EXPECT_CONTAINS(mode, "magic");
+  EXPECT_CONTAINS(mode, "off, semantic, geometric, full");
+}
+
+TEST(Config, MovedKeySaysWhereItIsNow) {
+  SystemOptions o = loadConfig(preset("tum_fr1.yaml"));
+  const std::string moved = configErrorOf([&] { applyOverride(o, "tracking.depth_baseline=0.1"); });
+  EXPECT_CONTAINS(moved, "tracking.depth_baseline is now camera.depth_baseline");
+  applyOverride(o, "camera.depth_baseline=0.1");
+  EXPECT_DOUBLE_EQ(o.camera.bf(), 517.306408 * 0.1);
+  applyOverride(o, "matching.ratio=0.7");
+  EXPECT_DOUBLE_EQ(o.matching.ratio, 0.7);
+  EXPECT_EQ(optionsToJson(o)["matching"]["ratio"], 0.7);
+}
+
+// Every mode option is read by name: an unknown name lists the allowed ones and the closest, in a
+// file and on the command line; a known name sets the enum.
+TEST(Config, ModeNamesAreReadAndUnknownOnesListTheAllowedValues) {
+  struct Case {
+    const char* section;
+    const char* key;
+    const char* typo;
+    const char* suggestion;
+    const char* allowed;
+  };
+  for (const Case& c : {Case{"dynamic", "mode", "geometirc", "geometric", "off, semantic, geometric, full"},
+                        Case{"dynamic", "stage1_unmatched_policy", "dorp", "drop", "keep, drop"},
+                        Case{"semantic", "segmenter", "maskdir", "mask_dir", "deeplab, mask_dir, none"},
+                        Case{"semantic", "backend", "openvc", "opencv", "opencv, xnnpack"}}) {
+    const std::string key = std::string(c.section) + "." + c.key;
+    SystemOptions o = loadConfig(preset("tum_fr1.yaml"));
+    const std::string message = configErrorOf([&] { applyOverride(o, key + "=" + c.typo); });
+    EXPECT_CONTAINS(message, "--set");
+    EXPECT_CONTAINS(message, key);
+    EXPECT_CONTAINS(message, c.typo);
+    EXPECT_CONTAINS(message, std::string("did you mean '") + c.suggestion + "'");
+    EXPECT_CONTAINS(message, c.allowed);
+    const std::string list = configErrorOf([&] { applyOverride(o, key + "=[a, b]"); });
+    EXPECT_CONTAINS(list, "expected one of " + std::string(c.allowed));
+    applyOverride(o, key + "=" + c.suggestion);
+    EXPECT_EQ(optionsToJson(o)[c.section][c.key], c.suggestion);
+  }
+  SystemOptions o = loadConfig(preset("tum_fr1.yaml"));
+  applyOverride(o, "dynamic.stage1_unmatched_policy=keep");
+  applyOverride(o, "semantic.segmenter=none");
+  applyOverride(o, "semantic.backend=opencv");
+  EXPECT_EQ(o.dynamic.stage1_unmatched_policy, UnmatchedPolicy::kKeep);
+  EXPECT_EQ(o.semantic.segmenter, SegmenterKind::kNone);
+  EXPECT_EQ(o.semantic.backend, SegmentationBackend::kOpenCv);
 }
 
 TEST(Config, CameraSectionAndIntrinsicsAreRequired) {
@@ -182,7 +231,7 @@ TEST(Config, OverrideSetsValuesOfEveryType) {
   applyOverride(o, "camera.distortion=[0,0,0,0,0]");
   applyOverride(o, "semantic.dynamic_classes=[15, 8]");
   applyOverride(o, "semantic.model_path=/models/a b.onnx");
-  EXPECT_EQ(o.dynamic.mode, "geometric");
+  EXPECT_EQ(o.dynamic.mode, DynamicMode::kGeometric);
   EXPECT_EQ(o.orb.num_features, 2000);
   EXPECT_DOUBLE_EQ(o.tracking.max_depth, 5.5);
   EXPECT_FALSE(o.mapping.local_ba);
@@ -218,7 +267,10 @@ TEST(Config, JsonHoldsEverySectionAndKeyAndReloadsToTheSameOptions) {
     EXPECT_TRUE(j.contains(section)) << section;
   EXPECT_DOUBLE_EQ(j["camera"]["fx"].get<double>(), 517.306408);
   EXPECT_EQ(j["camera"]["distortion"].size(), 5u);
-  EXPECT_EQ(j["dynamic"]["mode"], "semantic");
+  EXPECT_EQ(j["dynamic"]["mode"], "semantic");  // the names, not the enums' numbers
+  EXPECT_EQ(j["dynamic"]["stage1_unmatched_policy"], "drop");
+  EXPECT_EQ(j["semantic"]["segmenter"], "deeplab");
+  EXPECT_EQ(j["semantic"]["backend"], "xnnpack");
   EXPECT_EQ(j["semantic"]["dynamic_classes"], nlohmann::json::array({15}));
   EXPECT_EQ(j["mapping"]["local_ba"], true);
 

@@ -71,7 +71,7 @@ TEST(MaskDirectory, SizeMismatchIsAnInputError) {
 TEST(MaskDirectory, MissingDirectoryIsAnInputError) {
   EXPECT_THROW(MaskDirectorySegmenter("/nonexistent/desslam/masks"), InputError);
   SemanticOptions options;
-  options.segmenter = "mask_dir";
+  options.segmenter = SegmenterKind::kMaskDir;
   options.mask_dir = "/nonexistent/desslam/masks";
   EXPECT_THROW(makeSegmenter(options), InputError);
 }
@@ -79,7 +79,7 @@ TEST(MaskDirectory, MissingDirectoryIsAnInputError) {
 TEST(MaskDirectory, MadeFromOptions) {
   test::TempDir dir;
   SemanticOptions options;
-  options.segmenter = "mask_dir";
+  options.segmenter = SegmenterKind::kMaskDir;
   options.mask_dir = dir.path().string();
   const auto segmenter = makeSegmenter(options);
   ASSERT_NE(segmenter, nullptr);

@@ -113,7 +113,7 @@ TEST(OnnxReader, XnnpackBackendNamesAnUnsupportedOp) {
   const std::string bytes = model(smallGraph("Softmax"));
   std::ofstream(file, std::ios::binary).write(bytes.data(), std::streamsize(bytes.size()));
   SemanticOptions options;
-  options.backend = "xnnpack";
+  options.backend = SegmentationBackend::kXnnpack;
   options.model_path = file.string();
   options.model_sha256.clear();
   try {

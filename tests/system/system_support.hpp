@@ -47,8 +47,8 @@ inline void writeSyntheticSequence(const std::filesystem::path& dir, int frames)
 inline SystemOptions syntheticSystemOptions() {
   SystemOptions options;
   options.camera = sim::syntheticCamera();
-  options.semantic.segmenter = "none";
-  options.dynamic.mode = "geometric";
+  options.semantic.segmenter = SegmenterKind::kNone;
+  options.dynamic.mode = DynamicMode::kGeometric;
   options.dense.enabled = false;
   return options;
 }

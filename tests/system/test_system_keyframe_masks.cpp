@@ -28,10 +28,10 @@ struct MaskRun {
 MaskRun runWithLateMasks(const std::filesystem::path& dir, bool keyframe_exact_mask, bool deterministic = true) {
   const io::TumSequence sequence = io::TumSequence::open(dir);
   SystemOptions options = test::syntheticSystemOptions();
-  options.semantic.segmenter = "mask_dir";
+  options.semantic.segmenter = SegmenterKind::kMaskDir;
   options.semantic.mask_dir = (dir / "masks").string();
   options.semantic.keyframe_exact_mask = keyframe_exact_mask;
-  options.dynamic.mode = "semantic";  // the masks alone decide: no depth check hides what they miss
+  options.dynamic.mode = DynamicMode::kSemantic;  // the masks alone decide: no depth check hides what they miss
   // The carried mask as it is carried, not grown for its age: a grown one covers the box anyway here.
   options.dynamic.carried_mask_growth_px = 0;
   system::RunSettings settings;

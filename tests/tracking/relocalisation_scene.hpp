@@ -83,7 +83,7 @@ class RelocalisationScene {
   Relocaliser relocaliser() const {
     return Relocaliser(options_.relocalisation, camera_, map_, database_, bf());
   }
-  double bf() const { return camera_.fx() * options_.tracking.depth_baseline; }
+  double bf() const { return camera_.bf(); }
   bool allTracked() const { return all_tracked_; }
   SE3 lastTrackedPose() const { return last_tracked_T_c_w_; }
   const place::KeyframeDatabase& database() const { return database_; }
@@ -98,8 +98,8 @@ class RelocalisationScene {
   static SystemOptions makeOptions() {
     SystemOptions o;
     o.camera = sim::syntheticCamera();
-    o.semantic.segmenter = "none";
-    o.dynamic.mode = "off";  // a static room: nothing to check
+    o.semantic.segmenter = SegmenterKind::kNone;
+    o.dynamic.mode = DynamicMode::kOff;  // a static room: nothing to check
     o.dense.enabled = false;
     return o;
   }

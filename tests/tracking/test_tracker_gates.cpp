@@ -33,8 +33,8 @@ namespace {
 SystemOptions baseOptions() {
   SystemOptions o;
   o.camera = sim::syntheticCamera();
-  o.semantic.segmenter = "none";
-  o.dynamic.mode = "off";
+  o.semantic.segmenter = SegmenterKind::kNone;
+  o.dynamic.mode = DynamicMode::kOff;
   o.dense.enabled = false;
   return o;
 }
