@@ -158,6 +158,22 @@ cv::Mat SlamSystem::maskFor(uint64_t frame_id, const std::shared_ptr<const cv::M
     mask = mask_propagator_.carry(result_id, mask);
     last_labels_ = cv::Mat();
   }
+  if (options_.dynamic.mask_hold_previous) {
+    if (current_result_ != result) {  // a new segmentation: the one before it is held
+      held_result_ = current_result_;
+      held_result_id_ = current_result_id_;
+      current_result_ = result;
+      current_result_id_ = result_id;
+    }
+    if (held_result_ != nullptr && !held_result_->dynamic_mask.empty() && !mask.empty()) {
+      const cv::Mat held = mask_propagator_.carry(held_result_id_, held_result_->dynamic_mask);
+      if (!held.empty()) {
+        cv::Mat united;
+        cv::bitwise_or(mask != 0, held != 0, united);
+        mask = united;
+      }
+    }
+  }
   if (mask.empty()) return {};
   const DynamicOptions& d = options_.dynamic;
   const int growth = std::min(std::max(0, stats.mask_age) * d.carried_mask_growth_px, d.carried_mask_max_growth_px);
@@ -203,7 +219,7 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   std::vector<cv::KeyPoint> keypoints;
   cv::Mat descriptors;
   extractor_.extract(gray, keypoints, descriptors);
-  if (carriesMasks() && semantic_) mask_propagator_.addFrame(frame_id, gray);
+  if (tracksFlow() && semantic_) mask_propagator_.addFrame(frame_id, gray);
   stats.extraction_ms = millisecondsSince(start);
 
   const cv::Mat dynamic_mask = maskFor(frame_id, shared_bgr, image_name, keypoints, stats);

@@ -198,6 +198,11 @@ class SlamSystem {
   std::shared_ptr<const semantic::Segmentation> emulated_result_;
   uint64_t emulated_result_id_ = 0;
   bool carriesMasks() const { return settings_.realtime || settings_.mask_latency_frames > 0; }
+  // The optical flow is kept when masks are carried or held (dynamic.mask_hold_previous).
+  bool tracksFlow() const { return carriesMasks() || options_.dynamic.mask_hold_previous; }
+  // dynamic.mask_hold_previous: the segmentation before the current one (tracking thread only).
+  std::shared_ptr<const semantic::Segmentation> held_result_, current_result_;
+  uint64_t held_result_id_ = 0, current_result_id_ = 0;
 
   // Dense keyframes of maps not (yet) merged into the dense map's world (tracking thread only),
   // with their keyframe (its map_id, read under the Map lock, follows merges); at most
