@@ -15,8 +15,19 @@ function(desslam_add_library stage)
   target_link_libraries(desslam_${stage} PUBLIC ${ARG_DEPS})
 endfunction()
 
+# desslam_test_timeout(<out var> <seconds>): a test's timeout times DESSLAM_TEST_TIMEOUT_SCALE
+# (sanitizer builds run tests several times slower).
+function(desslam_test_timeout out seconds)
+  if(NOT DESSLAM_TEST_TIMEOUT_SCALE)
+    set(DESSLAM_TEST_TIMEOUT_SCALE 1)
+  endif()
+  math(EXPR scaled "${seconds} * ${DESSLAM_TEST_TIMEOUT_SCALE}")
+  set(${out} ${scaled} PARENT_SCOPE)
+endfunction()
+
 # desslam_add_test(<name> SOURCES ... [DEPS ...] [LABELS ...] [TIMEOUT s])
-#   one GoogleTest executable registered with CTest (gtest_discover_tests).
+#   one GoogleTest executable registered with CTest (gtest_discover_tests); TIMEOUT (default
+#   600 s) is scaled by desslam_test_timeout.
 #   DESSLAM_SHARED_DIR (../shared beside the project) is passed to the tests as an env var.
 function(desslam_add_test name)
   cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
@@ -27,6 +38,7 @@ function(desslam_add_test name)
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 600)
   endif()
+  desslam_test_timeout(ARG_TIMEOUT ${ARG_TIMEOUT})
   # An empty LABELS value would swallow the next property name, so add it only when given.
   set(label_property "")
   if(ARG_LABELS)

@@ -155,7 +155,9 @@ Tensor parseTensor(Reader r) {
     if (has_raw) {
       if (std::int64_t(raw.size()) != count * 4) r.fail("tensor '" + t.name + "' raw_data size mismatch");
       t.floats.resize(std::size_t(count));
-      std::memcpy(t.floats.data(), raw.data(), raw.size());
+      // An empty tensor (a zero dimension; the shared DeepLab model has one) has no buffer:
+      // data() may be null, and memcpy with a null pointer is undefined even for 0 bytes.
+      if (count > 0) std::memcpy(t.floats.data(), raw.data(), raw.size());
     } else if (std::int64_t(t.floats.size()) != count) {
       r.fail("tensor '" + t.name + "' float_data has " + std::to_string(t.floats.size()) +
              " values for " + std::to_string(count) + " elements");

@@ -36,7 +36,7 @@ inline std::string packedInts(int field, const std::vector<std::int64_t>& values
 }
 inline std::string packedFloats(int field, const std::vector<float>& values) {
   std::string body(values.size() * 4, '\0');
-  std::memcpy(body.data(), values.data(), body.size());
+  if (!values.empty()) std::memcpy(body.data(), values.data(), body.size());  // data() may be null
   return bytesField(field, body);
 }
 
@@ -44,7 +44,7 @@ inline std::string packedFloats(int field, const std::vector<float>& values) {
 inline std::string floatTensor(const std::string& name, const std::vector<std::int64_t>& dims,
                                const std::vector<float>& values) {
   std::string raw(values.size() * 4, '\0');
-  std::memcpy(raw.data(), values.data(), raw.size());
+  if (!values.empty()) std::memcpy(raw.data(), values.data(), raw.size());  // data() may be null
   return packedInts(1, dims) + intField(2, 1) + bytesField(8, name) + bytesField(9, raw);
 }
 inline std::string int64Tensor(const std::string& name, const std::vector<std::int64_t>& dims,

@@ -71,6 +71,20 @@ TEST(OnnxReader, ReadsNodesAttributesInitializersAndShapes) {
   EXPECT_EQ(m.outputs[0].name, "y");
 }
 
+// A float tensor with a zero dimension and empty raw_data (the shared DeepLab model has one):
+// read as zero values (in the ASan+UBSan build this also checks no null pointer reaches memcpy).
+TEST(OnnxReader, ReadsAnEmptyRawFloatTensor) {
+  const std::string empty_tensor = packedInts(1, {0}) + intField(2, kFloat) + bytesField(8, "roi") + bytesField(9, "");
+  const Model m = parseModel(model(bytesField(5, empty_tensor)));
+  ASSERT_EQ(m.initializers.count("roi"), 1u);
+  EXPECT_EQ(m.initializers.at("roi").dims, (std::vector<std::int64_t>{0}));
+  EXPECT_EQ(m.initializers.at("roi").elementCount(), 0);
+  EXPECT_TRUE(m.initializers.at("roi").floats.empty());
+  // A zero-element tensor with raw bytes is still a size mismatch.
+  const std::string bad = packedInts(1, {0}) + intField(2, kFloat) + bytesField(8, "roi") + bytesField(9, "abcd");
+  EXPECT_THROW(parseModel(model(bytesField(5, bad))), FormatError);
+}
+
 TEST(OnnxReader, RejectsMalformedBytes) {
   EXPECT_THROW(parseModel("not a network"), FormatError);
   EXPECT_THROW(parseModel(""), FormatError);  // no graph
