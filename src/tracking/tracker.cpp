@@ -32,6 +32,7 @@ constexpr int kStarvingInliers = kMinLocalMapInliers + 10;  // local-map inliers
 constexpr size_t kRecoveryKeyframes = 8;   // when lost, the newest keyframes tried before giving up
 constexpr double kStillTranslation = 0.005;        // metres per frame below which motion is negligible
 constexpr double kStillRotation = 0.5 * M_PI / 180;  // radians per frame
+constexpr size_t kBridgeVelocityFrames = 5;  // tracked frames whose average motion bridges a loss
 // Keyframes keep a half-resolution depth image only when stage 2 will look at it.
 
 bool nearPrediction(const SE3& T_c_w, const SE3& predicted_T_c_w) {
@@ -187,7 +188,7 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     }
     if (predict) {
       frame.clearMatches();
-      frame.T_c_w = predicted_T_c_w;
+      frame.T_c_w = bridgedPose(frame.timestamp);
       frame.has_pose = true;
       SE3 T_c_r;
       {
@@ -233,6 +234,10 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     active_map_ = reference_keyframe_->map_id;
   }
   records_.push_back({frame.id, frame.timestamp, reference_keyframe_, last_T_c_r_, active_map_});
+  if (!recent_T_c_w_.empty() && recent_T_c_w_.back().first >= frame.timestamp) recent_T_c_w_.clear();
+  if (recovering) recent_T_c_w_.clear();  // the frames before the gap may be in another map
+  recent_T_c_w_.emplace_back(frame.timestamp, frame.T_c_w);
+  while (recent_T_c_w_.size() > kBridgeVelocityFrames + 1) recent_T_c_w_.pop_front();
   // Visual-odometry matches only serve the next frame's motion-model search.
   last_frame_ = frame;
   pushHistory(frame, reference_keyframe_, last_T_c_r_);
@@ -386,6 +391,17 @@ bool Tracker::implausibleJump(const map::Frame& frame) const {
   const double seconds = std::max(frame.timestamp - last_frame_.timestamp, 1.0 / 30.0);
   const double moved = (frame.T_c_w.inverse().translation() - last_frame_.T_c_w.inverse().translation()).norm();
   return moved > options_.tracking.max_speed_m_s * seconds;
+}
+
+SE3 Tracker::bridgedPose(Timestamp t) const {
+  // Constant velocity over the last kBridgeVelocityFrames tracked frames, from the last one.
+  const SE3 one_step = motionOver(t - last_frame_.timestamp) * last_frame_.T_c_w;
+  if (recent_T_c_w_.size() < 2) return one_step;
+  const auto& [t0, T0] = recent_T_c_w_.front();
+  const auto& [t1, T1] = recent_T_c_w_.back();
+  if (!(t1 - t0 > 1e-6)) return one_step;
+  const SE3 motion = T1 * T0.inverse();
+  return SE3::exp(motion.log() * ((t - t1) / (t1 - t0))) * last_frame_.T_c_w;
 }
 
 SE3 Tracker::motionOver(double seconds) const {

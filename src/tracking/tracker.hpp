@@ -130,6 +130,11 @@ class Tracker {
   SE3 last_T_c_r_;
   std::optional<SE3> velocity_;  // T_current_last of the previous step
   double velocity_interval_s_ = 0;  // the time that step took
+  // The last tracked frames' poses (as tracked, oldest first): the motion bridged through a loss
+  // is their average over kBridgeVelocityFrames, not the last step's, which walkers crossing the
+  // view just before the loss disturb most.
+  std::deque<std::pair<Timestamp, SE3>> recent_T_c_w_;
+  SE3 bridgedPose(Timestamp t) const;
   map::Keyframe* reference_keyframe_ = nullptr;
   map::Keyframe* last_keyframe_ = nullptr;
   uint64_t last_keyframe_frame_id_ = 0;
