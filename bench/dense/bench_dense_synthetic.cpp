@@ -22,18 +22,8 @@ namespace {
 using namespace desslam;
 using namespace desslam::dense;
 
-CameraOptions halfResolution(CameraOptions c) {
-  c.width /= 2;
-  c.height /= 2;
-  c.fx /= 2;
-  c.fy /= 2;
-  c.cx = (c.cx + 0.5) / 2 - 0.5;
-  c.cy = (c.cy + 0.5) / 2 - 0.5;
-  return c;
-}
-
 struct Room {
-  CameraOptions camera_options = halfResolution(sim::syntheticCamera());
+  CameraOptions camera_options = sim::halfResolution(sim::syntheticCamera());
   std::vector<DenseKeyframe> keyframes;
 };
 

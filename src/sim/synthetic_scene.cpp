@@ -339,4 +339,14 @@ CameraOptions syntheticCamera() {
   return camera;
 }
 
+CameraOptions halfResolution(CameraOptions camera) {
+  camera.width /= 2;
+  camera.height /= 2;
+  camera.fx /= 2;
+  camera.fy /= 2;
+  camera.cx = (camera.cx + 0.5) / 2 - 0.5;
+  camera.cy = (camera.cy + 0.5) / 2 - 0.5;
+  return camera;
+}
+
 }  // namespace desslam::sim

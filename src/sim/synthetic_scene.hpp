@@ -85,5 +85,8 @@ void writeSequence(const std::filesystem::path& dir, const SyntheticScene& scene
 
 // 640x480, fx = fy = 525, cx = 319.5, cy = 239.5, no distortion, depth factor 5000, 30 fps.
 CameraOptions syntheticCamera();
+// The same camera at half the image size (pixel centres kept: c' = (c + 0.5) / 2 - 0.5), for
+// tests and benchmarks that fuse many frames.
+CameraOptions halfResolution(CameraOptions camera);
 
 }  // namespace desslam::sim

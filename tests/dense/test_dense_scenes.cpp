@@ -20,20 +20,10 @@
 namespace desslam::dense {
 namespace {
 
-CameraOptions halfResolution(CameraOptions c) {
-  c.width /= 2;
-  c.height /= 2;
-  c.fx /= 2;
-  c.fy /= 2;
-  c.cx = (c.cx + 0.5) / 2 - 0.5;
-  c.cy = (c.cy + 0.5) / 2 - 0.5;
-  return c;
-}
-
 TEST(DenseSyntheticRoom, FusedPointsLieOnStaticSurfacesAndNoneOnTheWalker) {
   sim::SceneOptions scene_options;
   scene_options.moving_object = true;
-  const CameraOptions camera_options = halfResolution(sim::syntheticCamera());
+  const CameraOptions camera_options = sim::halfResolution(sim::syntheticCamera());
   const sim::SyntheticScene scene(scene_options, camera_options);
   const PinholeCamera camera(camera_options);
   const Trajectory path = sim::sweepPath(120, camera_options.fps);
