@@ -71,6 +71,7 @@ void TrackingOptions::validate() const {
   requireInRange(s, "close_depth", close_depth, min_depth, max_depth);
   requireInRange(s, "min_inliers", min_inliers, 4, 1000);
   requireInRange(s, "max_speed_m_s", max_speed_m_s, 0.01, 1000.0);
+  requireInRange(s, "max_acceleration_m_s2", max_acceleration_m_s2, 0.0, 1000.0);
   requireInRange(s, "max_frames_between_keyframes", max_frames_between_keyframes, 1, 100000);
   requireInRange(s, "min_frames_between_keyframes", min_frames_between_keyframes, 0,
                  max_frames_between_keyframes);

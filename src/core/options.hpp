@@ -130,6 +130,12 @@ struct TrackingOptions {
   // second): a pose that jumps further came from a wrong consensus (e.g. a crowd's features), and
   // the frame counts as lost instead. Hand-held and robot RGB-D cameras stay well below.
   double max_speed_m_s = 3.0;
+  // A frame found again after a bridged loss (tracking.predict_through_loss_s) must agree with the
+  // bridged pose: its camera centre within 3 cm + a t^2 / 2 of it, t the time since the last
+  // tracked frame, a this (metres per second squared). The ground truth of fr1_xyz, fr1_desk and
+  // Bonn crowd stays within 10 m/s^2 frame to frame; a camera that jumps by more followed walkers
+  // whose features the masks missed (unchecked while lost). 0 = off.
+  double max_acceleration_m_s2 = 10.0;
   int max_frames_between_keyframes = 30;   // at most one second without a keyframe (at 30 Hz)
   int min_frames_between_keyframes = 0;
   double keyframe_tracked_ratio = 0.75;    // new keyframe when tracked/ref-keyframe points < this
@@ -170,6 +176,7 @@ struct TrackingOptions {
   template <class V> void fields(V& v) {
     v("min_depth", min_depth); v("max_depth", max_depth); v("close_depth", close_depth);
     v("min_inliers", min_inliers); v("max_speed_m_s", max_speed_m_s);
+    v("max_acceleration_m_s2", max_acceleration_m_s2);
     v("max_frames_between_keyframes", max_frames_between_keyframes);
     v("min_frames_between_keyframes", min_frames_between_keyframes);
     v("keyframe_tracked_ratio", keyframe_tracked_ratio);

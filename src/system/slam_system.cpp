@@ -596,6 +596,7 @@ nlohmann::json SlamSystem::statistics() const {
                    {"tracking_losses", tracker_.losses()},
                    {"relocalisations", tracker_.relocalisations()},
                    {"implausible_jumps_refused", tracker_.implausibleJumps()},
+                   {"bridge_disagreements_refused", tracker_.bridgeDisagreements()},
                    {"weak_poses", tracker_.weakPoses()},
                    {"predicted_poses", tracker_.predictedPoses()},
                    {"keyframes", map_.keyframeCount()},

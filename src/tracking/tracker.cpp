@@ -163,6 +163,13 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     ok = false;
     ++implausible_jumps_;
   }
+  // Found again in the same map after a bridged loss: unmasked features on people are not checked
+  // by stage 1 while recovering, and may carry the pose along with them (a fr1_xyz composite with
+  // close walkers: 8 cm off the bridged pose 2 frames after the loss, then 3.5 cm more per frame).
+  if (ok && recovering && back_in_last_map && had_motion && disagreesWithBridge(frame)) {
+    ok = false;
+    ++bridge_disagreements_;
+  }
 
   if (!ok) {
     if (state_ == TrackingState::kOk) {
@@ -183,7 +190,8 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     const bool predict = had_motion && reference_keyframe_ != nullptr &&
                          frame.timestamp - last_frame_.timestamp <= options_.tracking.predict_through_loss_s;
     if ((!predict || young) && shouldStartNewMap(frame, young)) {
-      resetForNewMap();
+      // A start that will be refused (a covered camera) must not cost the bridge its velocity.
+      if (!predict || canStartMap(frame, camera_, options_.atlas)) resetForNewMap();
       if (initialize(frame, outcome, young ? "young map lost" : "lost")) return outcome;
     }
     if (predict) {
@@ -391,6 +399,18 @@ bool Tracker::implausibleJump(const map::Frame& frame) const {
   const double seconds = std::max(frame.timestamp - last_frame_.timestamp, 1.0 / 30.0);
   const double moved = (frame.T_c_w.inverse().translation() - last_frame_.T_c_w.inverse().translation()).norm();
   return moved > options_.tracking.max_speed_m_s * seconds;
+}
+
+bool Tracker::disagreesWithBridge(const map::Frame& frame) const {
+  const double a = options_.tracking.max_acceleration_m_s2;
+  // Only a bridge resting on an established motion (kBridgeVelocityFrames tracked frames in a row)
+  // is trusted to judge: one built on a single frame found again after a loss is no better than
+  // the frame it would judge.
+  if (a <= 0 || recent_T_c_w_.size() < kBridgeVelocityFrames + 1) return false;
+  const double seconds = std::max(frame.timestamp - last_frame_.timestamp, 1.0 / 30.0);
+  const SE3 bridged = bridgedPose(frame.timestamp);
+  const double off_m = (frame.T_c_w.inverse().translation() - bridged.inverse().translation()).norm();
+  return off_m > kWeakMaxDeviationM + 0.5 * a * seconds * seconds;
 }
 
 SE3 Tracker::bridgedPose(Timestamp t) const {

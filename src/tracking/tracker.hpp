@@ -66,6 +66,8 @@ class Tracker {
   int losses() const { return losses_; }                    // times tracking went from ok to lost
   int relocalisations() const { return relocalisations_; }  // times the relocaliser recovered it
   int implausibleJumps() const { return implausible_jumps_; }  // poses refused by tracking.max_speed_m_s
+  // Poses found again after a bridged loss, refused by tracking.max_acceleration_m_s2.
+  int bridgeDisagreements() const { return bridge_disagreements_; }
   int weakPoses() const { return weak_poses_; }  // frames kept with few inliers near the prediction
   int predictedPoses() const { return predicted_poses_; }  // lost frames given the motion prediction
   int mapsStarted() const { return maps_started_; }           // maps of the atlas this tracker started
@@ -135,6 +137,8 @@ class Tracker {
   // view just before the loss disturb most.
   std::deque<std::pair<Timestamp, SE3>> recent_T_c_w_;
   SE3 bridgedPose(Timestamp t) const;
+  // tracking.max_acceleration_m_s2: the frame's pose is too far from bridgedPose().
+  bool disagreesWithBridge(const map::Frame& frame) const;
   map::Keyframe* reference_keyframe_ = nullptr;
   map::Keyframe* last_keyframe_ = nullptr;
   uint64_t last_keyframe_frame_id_ = 0;
@@ -155,6 +159,7 @@ class Tracker {
   int losses_ = 0;
   int relocalisations_ = 0;
   int implausible_jumps_ = 0;
+  int bridge_disagreements_ = 0;
   int maps_started_ = 0;
   int weak_poses_ = 0;
   int predicted_poses_ = 0;

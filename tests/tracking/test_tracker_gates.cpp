@@ -57,6 +57,20 @@ class Rig {
     return desslam::test::renderSyntheticFrame(scene_, extractor_, pyramid_, camera_, options_.tracking, T_w_c, t, id);
   }
 
+  // A covered camera: black image, no depth (no features).
+  map::Frame blank(Timestamp t, uint64_t id) const {
+    const cv::Mat gray(camera_.height(), camera_.width(), CV_8UC1, cv::Scalar(0));
+    std::vector<cv::KeyPoint> keypoints;
+    cv::Mat descriptors;
+    extractor_.extract(gray, keypoints, descriptors);
+    const cv::Mat depth(gray.size(), CV_32FC1, cv::Scalar(0.0f));
+    auto features = map::buildFeatureSet(std::move(keypoints), std::move(descriptors), camera_, depth, pyramid_,
+                                         options_.tracking.min_depth, options_.tracking.max_depth);
+    map::Frame frame(id, t, "blank_" + std::to_string(id), std::move(features));
+    frame.depth = depth;
+    return frame;
+  }
+
   // Tracks the frame; a new keyframe is handed to local mapping only after `inspect` saw it.
   TrackOutcome track(map::Frame& frame, const std::function<void(const TrackOutcome&)>& inspect = {}) {
     const TrackOutcome outcome = tracker_.track(frame, /*mapping_idle=*/true);
@@ -194,6 +208,90 @@ TEST(TrackerSpeedGate, AFrameFoundAgainInTheSameMapIsHeldToTheSpeedSinceTheLastT
   EXPECT_TRUE(rig.track(later).tracked);
   EXPECT_EQ(rig.tracker().implausibleJumps(), 2);
   EXPECT_LT(cameraDistance(later.T_c_w, expected_T_c_w), 0.03);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bridging a short loss (tracking.predict_through_loss_s)
+
+// The camera slides sideways 4 mm per frame, then 12 mm on the last tracked frame (as an
+// estimate pulled by walkers crossing just before a loss is). The covered frame after it gets the
+// average motion of the last 5 tracked frames, not the last step alone.
+TEST(TrackerBridging, ACoveredFrameGetsTheAverageMotionOfTheLastFiveTrackedFrames) {
+  SystemOptions options = baseOptions();
+  const double frame_s = 1.0 / options.camera.fps;
+  const SE3 T_w_start = sim::sweepPath(1, options.camera.fps).front().T_w_c;
+  Trajectory path;
+  double offset_m = 0.0;
+  for (int i = 0; i < kSpeedFrames; ++i) {
+    if (i > 0) offset_m += (i == kSpeedFrames - 1) ? 0.012 : 0.004;
+    path.push_back({1000.0 + i * frame_s,
+                    SE3(T_w_start.rotation(), T_w_start.translation() + T_w_start.rotation() * Vec3(offset_m, 0.0, 0.0))});
+  }
+  Rig rig(options);
+  std::vector<Vec3> centres;  // estimated camera centres, map frame
+  for (int i = 0; i < kSpeedFrames; ++i) {
+    map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
+    ASSERT_TRUE(rig.track(frame).tracked) << "frame " << i;
+    centres.push_back(frame.T_c_w.inverse().translation());
+  }
+  const Vec3 last_step = centres[kSpeedFrames - 1] - centres[kSpeedFrames - 2];
+  const Vec3 average_step = (centres[kSpeedFrames - 1] - centres[kSpeedFrames - 6]) / 5.0;
+  ASSERT_NEAR(last_step.norm(), 0.012, 0.002);
+  ASSERT_NEAR(average_step.norm(), 0.0056, 0.002);
+
+  map::Frame covered = rig.blank(path.back().timestamp + frame_s, kSpeedFrames);
+  const TrackOutcome outcome = rig.track(covered);
+  EXPECT_FALSE(outcome.tracked);
+  ASSERT_TRUE(outcome.predicted);
+  ASSERT_TRUE(covered.has_pose);
+  const Vec3 bridged_step = covered.T_c_w.inverse().translation() - centres.back();
+  EXPECT_LT((bridged_step - average_step).norm(), 0.001);
+  EXPECT_GT((bridged_step - last_step).norm(), 0.004);
+
+  // A second covered frame continues at the same velocity.
+  map::Frame still_covered = rig.blank(path.back().timestamp + 2 * frame_s, kSpeedFrames + 1);
+  ASSERT_TRUE(rig.track(still_covered).predicted);
+  const Vec3 second_step = still_covered.T_c_w.inverse().translation() - covered.T_c_w.inverse().translation();
+  EXPECT_LT((second_step - average_step).norm(), 0.001);
+  EXPECT_EQ(rig.tracker().lostFrames(), 0);
+}
+
+// After a bridged loss (one covered frame), the next frame is seen 10 cm beside where the motion
+// says it is: 1.5 m/s over the 2 frames since the last tracked one (under the 3 m/s speed gate),
+// but 10 m/s^2 allows 3 cm + 2.2 cm there: refused. With the gate off the same frame is tracked,
+// at the displaced pose; a frame where the motion says it is tracked either way.
+TEST(TrackerBridging, AFrameFoundAgainFarFromTheBridgedPoseIsRefused) {
+  const double frame_s = 1.0 / baseOptions().camera.fps;
+  const Trajectory path = sim::sweepPath(kSpeedFrames + 2, baseOptions().camera.fps);
+  const StampedPose& next = path[kSpeedFrames + 1];  // where the camera is 2 frames after the last tracked one
+  const SE3 T_w_jump(next.T_w_c.rotation(), next.T_w_c.translation() + next.T_w_c.rotation() * Vec3(0.1, 0.0, 0.0));
+  const SE3 expected_jump_T_c_w = (path.front().T_w_c.inverse() * T_w_jump).inverse();
+  for (const double max_acceleration : {10.0, 0.0}) {
+    SCOPED_TRACE("max_acceleration_m_s2 " + std::to_string(max_acceleration));
+    SystemOptions options = baseOptions();
+    options.tracking.max_acceleration_m_s2 = max_acceleration;
+    options.atlas.enabled = false;  // a refused frame stays in the map, bridged (the atlas would start a young map's successor there)
+    ASSERT_DOUBLE_EQ(baseOptions().tracking.max_acceleration_m_s2, 10.0);
+    for (const bool displaced : {true, false}) {
+      SCOPED_TRACE(displaced ? "displaced" : "on the path");
+      Rig rig(options);
+      for (int i = 0; i < kSpeedFrames; ++i) {
+        map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
+        ASSERT_TRUE(rig.track(frame).tracked) << "frame " << i;
+      }
+      map::Frame covered = rig.blank(path[kSpeedFrames].timestamp, kSpeedFrames);
+      ASSERT_TRUE(rig.track(covered).predicted);
+      map::Frame back = rig.render(displaced ? T_w_jump : next.T_w_c, next.timestamp, kSpeedFrames + 1);
+      ASSERT_NEAR(next.timestamp - path[kSpeedFrames - 1].timestamp, 2 * frame_s, 1e-9);
+      const TrackOutcome outcome = rig.track(back);
+      const bool refused = displaced && max_acceleration > 0;
+      EXPECT_EQ(outcome.tracked, !refused);
+      EXPECT_EQ(outcome.predicted, refused) << "a refused frame keeps the bridged pose";
+      EXPECT_EQ(rig.tracker().bridgeDisagreements(), refused ? 1 : 0);
+      EXPECT_EQ(rig.tracker().implausibleJumps(), 0);
+      if (displaced && !refused) EXPECT_LT(cameraDistance(back.T_c_w, expected_jump_T_c_w), 0.03);
+    }
+  }
 }
 
 // ---------------------------------------------------------------------------------------------
