@@ -18,6 +18,21 @@
 
 namespace desslam::test {
 
+// Frame `id` at time t from a grey image and its depth (CV_32F metres).
+inline map::Frame frameFromImages(const cv::Mat& gray, const cv::Mat& depth, const feature::OrbExtractor& extractor,
+                                  const std::shared_ptr<const feature::ScalePyramid>& pyramid,
+                                  const PinholeCamera& camera, const TrackingOptions& tracking, Timestamp t,
+                                  uint64_t id, const std::string& name) {
+  std::vector<cv::KeyPoint> keypoints;
+  cv::Mat descriptors;
+  extractor.extract(gray, keypoints, descriptors);
+  auto features = map::buildFeatureSet(std::move(keypoints), std::move(descriptors), camera, depth, pyramid,
+                                       tracking.min_depth, tracking.max_depth);
+  map::Frame frame(id, t, name, std::move(features));
+  frame.depth = depth;
+  return frame;
+}
+
 // The scene seen from T_w_c (world = the room's frame) at time t, as frame `id`.
 inline map::Frame renderSyntheticFrame(const sim::SyntheticScene& scene, const feature::OrbExtractor& extractor,
                                        const std::shared_ptr<const feature::ScalePyramid>& pyramid,
@@ -26,14 +41,17 @@ inline map::Frame renderSyntheticFrame(const sim::SyntheticScene& scene, const f
   const sim::RenderedFrame rendered = scene.render(T_w_c, t);
   cv::Mat gray;
   cv::cvtColor(rendered.bgr, gray, cv::COLOR_BGR2GRAY);
-  std::vector<cv::KeyPoint> keypoints;
-  cv::Mat descriptors;
-  extractor.extract(gray, keypoints, descriptors);
-  auto features = map::buildFeatureSet(std::move(keypoints), std::move(descriptors), camera, rendered.depth, pyramid,
-                                       tracking.min_depth, tracking.max_depth);
-  map::Frame frame(id, t, "synthetic_" + std::to_string(id), std::move(features));
-  frame.depth = rendered.depth;
-  return frame;
+  return frameFromImages(gray, rendered.depth, extractor, pyramid, camera, tracking, t, id,
+                         "synthetic_" + std::to_string(id));
+}
+
+// A covered camera at time t: black image, no depth (no features).
+inline map::Frame coveredFrame(const feature::OrbExtractor& extractor,
+                               const std::shared_ptr<const feature::ScalePyramid>& pyramid,
+                               const PinholeCamera& camera, const TrackingOptions& tracking, Timestamp t, uint64_t id) {
+  const cv::Mat gray(camera.height(), camera.width(), CV_8UC1, cv::Scalar(0));
+  const cv::Mat depth(gray.size(), CV_32FC1, cv::Scalar(0.0f));
+  return frameFromImages(gray, depth, extractor, pyramid, camera, tracking, t, id, "covered_" + std::to_string(id));
 }
 
 }  // namespace desslam::test

@@ -1,6 +1,8 @@
 // Tracker gates on the rendered synthetic room (sim/), tracked inline with local mapping:
 //  - tracking.max_speed_m_s: a frame tracked from the previous one whose camera centre moved
 //    faster than that is lost (Tracker::implausibleJumps()).
+//  - a short loss is bridged by the average motion of the last 5 tracked frames, and a frame
+//    found again far from that bridge is refused (tracking.max_acceleration_m_s2).
 //  - Frame::mapping_margin_px: a keyframe maps nothing within that many pixels of the dynamic
 //    mask, and is not made when fewer than 100 mappable features remain.
 // dynamic.mode "off": stage 1/2 leave the statuses alone, so the tests set them as they need.
@@ -57,18 +59,8 @@ class Rig {
     return desslam::test::renderSyntheticFrame(scene_, extractor_, pyramid_, camera_, options_.tracking, T_w_c, t, id);
   }
 
-  // A covered camera: black image, no depth (no features).
   map::Frame blank(Timestamp t, uint64_t id) const {
-    const cv::Mat gray(camera_.height(), camera_.width(), CV_8UC1, cv::Scalar(0));
-    std::vector<cv::KeyPoint> keypoints;
-    cv::Mat descriptors;
-    extractor_.extract(gray, keypoints, descriptors);
-    const cv::Mat depth(gray.size(), CV_32FC1, cv::Scalar(0.0f));
-    auto features = map::buildFeatureSet(std::move(keypoints), std::move(descriptors), camera_, depth, pyramid_,
-                                         options_.tracking.min_depth, options_.tracking.max_depth);
-    map::Frame frame(id, t, "blank_" + std::to_string(id), std::move(features));
-    frame.depth = depth;
-    return frame;
+    return desslam::test::coveredFrame(extractor_, pyramid_, camera_, options_.tracking, t, id);
   }
 
   // Tracks the frame; a new keyframe is handed to local mapping only after `inspect` saw it.
@@ -266,12 +258,12 @@ TEST(TrackerBridging, AFrameFoundAgainFarFromTheBridgedPoseIsRefused) {
   const StampedPose& next = path[kSpeedFrames + 1];  // where the camera is 2 frames after the last tracked one
   const SE3 T_w_jump(next.T_w_c.rotation(), next.T_w_c.translation() + next.T_w_c.rotation() * Vec3(0.1, 0.0, 0.0));
   const SE3 expected_jump_T_c_w = (path.front().T_w_c.inverse() * T_w_jump).inverse();
+  ASSERT_DOUBLE_EQ(baseOptions().tracking.max_acceleration_m_s2, 10.0);
   for (const double max_acceleration : {10.0, 0.0}) {
     SCOPED_TRACE("max_acceleration_m_s2 " + std::to_string(max_acceleration));
     SystemOptions options = baseOptions();
     options.tracking.max_acceleration_m_s2 = max_acceleration;
     options.atlas.enabled = false;  // a refused frame stays in the map, bridged (the atlas would start a young map's successor there)
-    ASSERT_DOUBLE_EQ(baseOptions().tracking.max_acceleration_m_s2, 10.0);
     for (const bool displaced : {true, false}) {
       SCOPED_TRACE(displaced ? "displaced" : "on the path");
       Rig rig(options);
