@@ -170,6 +170,8 @@ void LoopOptions::validate() const {
   requireInRange(s, "group_size", group_size, 0, 100);
   requireInRange(s, "group_score_ratio", group_score_ratio, 0.0, 1.0);
   requireInRange(s, "max_candidates", max_candidates, 1, 100);
+  requireInRange(s, "confirm_keyframes", confirm_keyframes, 0, 100);
+  requireInRange(s, "min_confirm_matches", min_confirm_matches, 3, 100000);
   requireInRange(s, "max_descriptor_distance", max_descriptor_distance, 1, 256);
   requireInRange(s, "match_ratio", match_ratio, 0.1, 1.0);
   requireInRange(s, "ransac_iterations", ransac_iterations, 1, 100000);
@@ -189,6 +191,7 @@ void AtlasOptions::validate() const {
   requireInRange(s, "min_initial_cells", min_initial_cells, 1, 16);
   requireInRange(s, "new_map_after_lost_s", new_map_after_lost_s, 0.0, 3600.0);
   requireInRange(s, "young_map_keyframes", young_map_keyframes, 0, 100000);
+  requireInRange(s, "merge_match_keyframes", merge_match_keyframes, 1, 100);
   requireInRange(s, "merge_min_consistent_keyframes", merge_min_consistent_keyframes, 1, 100);
 }
 

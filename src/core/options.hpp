@@ -441,6 +441,12 @@ struct LoopOptions {
   int group_size = 10;                   // a candidate's covisibility group: it and its best neighbours
   double group_score_ratio = 0.75;       // groups below this share of the best group's score are dropped
   int max_candidates = 3;                // consistent candidates verified geometrically per keyframe
+  // A loop found from the keyframe must also hold from its best covisible keyframes: of its
+  // confirm_keyframes best covisibles (all it has, if fewer), every one must see at least
+  // min_confirm_matches of the loop's points where the loop's transform puts them (descriptor
+  // and 3-D agreement). A keyframe without covisibles cannot close a loop. 0: no confirmation.
+  int confirm_keyframes = 2;
+  int min_confirm_matches = 20;
   int max_descriptor_distance = 50;      // Hamming; BoW-guided matching has no geometry, so strict
   double match_ratio = 0.75;             // best / second-best descriptor distance
   int ransac_iterations = 300;
@@ -460,6 +466,8 @@ struct LoopOptions {
     v("enabled", enabled); v("min_keyframes_between_loops", min_keyframes_between_loops);
     v("min_consistent_keyframes", min_consistent_keyframes); v("group_size", group_size);
     v("group_score_ratio", group_score_ratio); v("max_candidates", max_candidates);
+    v("confirm_keyframes", confirm_keyframes);
+    v("min_confirm_matches", min_confirm_matches);
     v("max_descriptor_distance", max_descriptor_distance); v("match_ratio", match_ratio);
     v("ransac_iterations", ransac_iterations); v("ransac_threshold_m", ransac_threshold_m);
     v("min_rigid_inliers", min_rigid_inliers); v("projection_radius_px", projection_radius_px);
@@ -488,6 +496,12 @@ struct AtlasOptions {
   // A keyframe recognised in another map must recur over this many consecutive keyframes before
   // the maps are merged (loop.min_consistent_keyframes applies to loops within a map).
   int merge_min_consistent_keyframes = 2;
+  // A merge's first, BoW-guided matching pairs the keyframe's features with the map points of the
+  // candidate and its best covisibles, this many keyframes in all (1: the candidate alone): a map
+  // started in a crowd is often seen again only 20-30 degrees apart, by keyframes holding 100-300
+  // map points, too few alone. Loops within a map match the candidate alone: there a missed loop
+  // costs some drift, while a wider match let walkers moving as one body fit false loops (Bonn).
+  int merge_match_keyframes = 5;
 
   static constexpr const char* kSection = "atlas";
   template <class V> void fields(V& v) {
@@ -495,6 +509,7 @@ struct AtlasOptions {
     v("min_initial_cells", min_initial_cells); v("new_map_after_lost_s", new_map_after_lost_s);
     v("young_map_keyframes", young_map_keyframes);
     v("merge_min_consistent_keyframes", merge_min_consistent_keyframes);
+    v("merge_match_keyframes", merge_match_keyframes);
   }
   void validate() const;
 };

@@ -184,41 +184,66 @@ std::vector<map::Keyframe*> LoopDetector::consistentCandidates(map::Keyframe* kf
 std::optional<LoopMatch> LoopDetector::verify(map::Keyframe* kf, map::Keyframe* candidate,
                                               const place::FeatureVector& kf_features) {
   if (candidate->bad) return std::nullopt;
-  auto candidate_features = database_.featureVector(candidate->id);
-  if (!candidate_features) candidate_features = database_.encode(*candidate->features, candidate->status).features;
   const map::FeatureSet& fa = *kf->features;
-  const map::FeatureSet& fb = *candidate->features;
 
-  // 1. Descriptor matches within shared vocabulary nodes: kf feature -> candidate map point.
-  std::map<int, std::pair<int, int>> best_for_point;  // candidate feature -> (kf feature, distance)
-  place::forEachSharedNode(kf_features, *candidate_features, [&](place::NodeId, const std::vector<int>& rows_a,
-                                                            const std::vector<int>& rows_b) {
-    for (int ia : rows_a) {
-      if (!kf->usable(ia)) continue;
-      int best = feature::kMaxDescriptorDistance + 1, second = best, best_ib = -1;
-      for (int ib : rows_b) {
-        const map::MapPoint* p = candidate->points[ib];
-        if (p == nullptr || p->bad) continue;
-        const int d = feature::descriptorDistance(fa.descriptor(ia), fb.descriptor(ib));
-        if (d < best) {
-          second = best;
-          best = d;
-          best_ib = ib;
-        } else if (d < second) {
-          second = d;
+  // 1. Descriptor matches within shared vocabulary nodes: kf feature -> map point of the
+  // candidate (for a merge, also of its best covisibles; ratio test within each keyframe).
+  struct Pick {
+    map::MapPoint* point = nullptr;
+    int distance = feature::kMaxDescriptorDistance + 1;
+    float angle_difference = 0;
+  };
+  std::vector<Pick> best_for_feature(fa.size());
+  std::vector<map::Keyframe*> match_group{candidate};
+  const int match_keyframes = candidate->map_id != kf->map_id ? atlas_.merge_match_keyframes : 1;
+  if (match_keyframes > 1)
+    for (map::Keyframe* nb : map::bestCovisibles(candidate, match_keyframes - 1)) match_group.push_back(nb);
+  for (map::Keyframe* g : match_group) {
+    if (g->bad) continue;
+    auto g_features = database_.featureVector(g->id);
+    if (!g_features) g_features = database_.encode(*g->features, g->status).features;
+    const map::FeatureSet& fb = *g->features;
+    place::forEachSharedNode(kf_features, *g_features, [&](place::NodeId, const std::vector<int>& rows_a,
+                                                         const std::vector<int>& rows_b) {
+      for (int ia : rows_a) {
+        if (!kf->usable(ia)) continue;
+        int best = feature::kMaxDescriptorDistance + 1, second = best, best_ib = -1;
+        for (int ib : rows_b) {
+          const map::MapPoint* p = g->points[ib];
+          if (p == nullptr || p->bad) continue;
+          const int d = feature::descriptorDistance(fa.descriptor(ia), fb.descriptor(ib));
+          if (d < best) {
+            second = best;
+            best = d;
+            best_ib = ib;
+          } else if (d < second) {
+            second = d;
+          }
         }
+        if (best_ib < 0 || best > options_.max_descriptor_distance) continue;
+        if (static_cast<double>(best) >= options_.match_ratio * second) continue;
+        Pick& pick = best_for_feature[static_cast<size_t>(ia)];
+        if (best < pick.distance)
+          pick = {g->points[best_ib], best, fa.keypoints[ia].angle - fb.keypoints[best_ib].angle};
       }
-      if (best_ib < 0 || best > options_.max_descriptor_distance) continue;
-      if (static_cast<double>(best) >= options_.match_ratio * second) continue;
-      auto it = best_for_point.find(best_ib);
-      if (it == best_for_point.end() || best < it->second.second) best_for_point[best_ib] = {ia, best};
-    }
-  });
-  std::vector<std::pair<int, int>> pairs;  // (kf feature, candidate feature)
+    });
+  }
+  // One feature per point: the closest descriptor (the lower feature index on ties).
+  std::map<const map::MapPoint*, int> feature_for_point;
+  for (size_t ia = 0; ia < best_for_feature.size(); ++ia) {
+    const Pick& pick = best_for_feature[ia];
+    if (pick.point == nullptr) continue;
+    auto [it, inserted] = feature_for_point.emplace(pick.point, static_cast<int>(ia));
+    if (!inserted && pick.distance < best_for_feature[static_cast<size_t>(it->second)].distance)
+      it->second = static_cast<int>(ia);
+  }
+  std::vector<std::pair<int, map::MapPoint*>> pairs;  // (kf feature, loop point), by feature index
   std::vector<float> angle_differences;
-  for (auto& [ib, entry] : best_for_point) {
-    pairs.emplace_back(entry.first, ib);
-    angle_differences.push_back(fa.keypoints[entry.first].angle - fb.keypoints[ib].angle);
+  for (size_t ia = 0; ia < best_for_feature.size(); ++ia) {
+    const Pick& pick = best_for_feature[ia];
+    if (pick.point == nullptr || feature_for_point.at(pick.point) != static_cast<int>(ia)) continue;
+    pairs.emplace_back(static_cast<int>(ia), pick.point);
+    angle_differences.push_back(pick.angle_difference);
   }
   const std::vector<bool> rotation_ok = matching::orientationConsistent(angle_differences);
 
@@ -228,7 +253,7 @@ std::optional<LoopMatch> LoopDetector::verify(map::Keyframe* kf, map::Keyframe* 
     if (!rotation_ok[k]) continue;
     Vec3 p_c;
     if (!cameraPoint(kf, pairs[k].first, camera_, p_c)) continue;
-    map::MapPoint* p = candidate->points[pairs[k].second];
+    map::MapPoint* p = pairs[k].second;
     correspondences.push_back({p->position, p_c, p_c.z()});
     owners.emplace_back(pairs[k].first, p);
   }
@@ -236,8 +261,13 @@ std::optional<LoopMatch> LoopDetector::verify(map::Keyframe* kf, map::Keyframe* 
   // Why a candidate fails (on fr1_desk every consistent candidate is a false place 1-2 m away
   // with < 25 descriptor matches; true revisits give 100+ inliers): one line per stage.
   const auto rejected = [&](const char* stage, int inliers) {
-    spdlog::debug("loop: keyframe {} candidate {} rejected at {}: {} descriptor matches, {} 3-D pairs, {} inliers",
-                  kf->id, candidate->id, stage, pairs.size(), correspondences.size(), inliers);
+    size_t usable_a = 0, mapped_b = 0;
+    for (size_t i = 0; i < fa.size(); ++i) usable_a += kf->usable(i) ? 1 : 0;
+    for (const map::MapPoint* p : candidate->points) mapped_b += (p != nullptr && !p->bad) ? 1 : 0;
+    spdlog::debug("loop: keyframe {} (map {}, t {:.3f}, {} static features) candidate {} (map {}, t {:.3f}, {} map points) "
+                  "rejected at {}: {} descriptor matches, {} 3-D pairs, {} inliers",
+                  kf->id, kf->map_id, kf->timestamp, usable_a, candidate->id, candidate->map_id, candidate->timestamp,
+                  mapped_b, stage, pairs.size(), correspondences.size(), inliers);
     return std::nullopt;
   };
   if (static_cast<int>(correspondences.size()) < options_.min_rigid_inliers) return rejected("matching", 0);
@@ -298,6 +328,31 @@ std::optional<LoopMatch> LoopDetector::verify(map::Keyframe* kf, map::Keyframe* 
   refit.min_inliers = options_.min_loop_matches;
   const RigidRansacResult final_fit = estimateRigidRansac(correspondences, refit);
   if (!final_fit.success) return rejected("guided search", final_fit.inlier_count);
+
+  // 4. Confirmation from the keyframe's best covisibles: a transform fitted to a coincidence
+  // (walkers, repeated texture) rarely also explains what the neighbouring keyframes see.
+  if (options_.confirm_keyframes > 0) {
+    std::vector<map::MapPoint*> loop_points;
+    for (map::Keyframe* g : group)
+      for (map::MapPoint* p : g->points)
+        if (p != nullptr && !p->bad) loop_points.push_back(p);
+    std::sort(loop_points.begin(), loop_points.end(),
+              [](const map::MapPoint* a, const map::MapPoint* b) { return a->id < b->id; });
+    loop_points.erase(std::unique(loop_points.begin(), loop_points.end()), loop_points.end());
+    const std::vector<map::Keyframe*> confirmers = map::bestCovisibles(kf, options_.confirm_keyframes);
+    if (confirmers.empty()) return rejected("confirmation (no covisible keyframe)", final_fit.inlier_count);
+    for (map::Keyframe* nb : confirmers) {
+      // The loop's transform carried to the neighbour through its pose relative to the keyframe.
+      const SE3 T_w_nb = final_fit.T_a_b * kf->T_c_w * nb->T_w_c();
+      const int confirmed = confirmedMatches(nb, T_w_nb, loop_points, ransac);
+      if (confirmed < options_.min_confirm_matches) {
+        spdlog::debug("loop: keyframe {} candidate {}: covisible keyframe {} confirms {} of {} needed matches",
+                      kf->id, candidate->id, nb->id, confirmed, options_.min_confirm_matches);
+        ++stats_.rejected_confirmation;
+        return rejected("confirmation", final_fit.inlier_count);
+      }
+    }
+  }
   LoopMatch match;
   match.current = kf;
   match.loop = candidate;
@@ -308,6 +363,45 @@ std::optional<LoopMatch> LoopDetector::verify(map::Keyframe* kf, map::Keyframe* 
   match.ransac_inliers = first.inlier_count;
   match.inliers = final_fit.inlier_count;
   return match;
+}
+
+int LoopDetector::confirmedMatches(map::Keyframe* nb, const SE3& T_w_nb, const std::vector<map::MapPoint*>& loop_points,
+                                   const RigidRansacOptions& ransac) const {
+  const map::FeatureSet& f = *nb->features;
+  const auto& pyramid = *f.pyramid;
+  const SE3 T_nb_w = T_w_nb.inverse();
+  const Vec3 center = T_w_nb.translation();
+  std::vector<bool> taken(f.size(), false);
+  int confirmed = 0;
+  for (const map::MapPoint* p : loop_points) {
+    if (p->descriptor.empty()) continue;
+    const Vec3 p_c = T_nb_w * p->position;
+    if (p_c.z() <= 0) continue;
+    const Vec2 uv = camera_.project(p_c);
+    if (!camera_.inImage(uv)) continue;
+    const double distance = (p->position - center).norm();
+    if (p->max_distance > 0 && (distance < 0.8 * p->min_distance || distance > 1.2 * p->max_distance)) continue;
+    const int level = p->max_distance > 0 ? map::predictLevel(p, distance, pyramid) : 0;
+    const double radius = options_.projection_radius_px * pyramid.scale[level];
+    int best = feature::kMaxDescriptorDistance + 1, best_i = -1;
+    for (int i : f.inArea(uv.x(), uv.y(), radius, std::max(0, level - 1), level + 1)) {
+      if (taken[i] || !nb->usable(i)) continue;
+      const int d = feature::descriptorDistance(p->descriptor.ptr<uint8_t>(), f.descriptor(i));
+      if (d < best) {
+        best = d;
+        best_i = i;
+      }
+    }
+    if (best_i < 0 || best > options_.max_descriptor_distance) continue;
+    // The neighbour's own depth must agree in 3-D, as the RANSAC inliers did.
+    Vec3 seen_c;
+    if (!cameraPoint(nb, best_i, camera_, seen_c)) continue;
+    const PointCorrespondence c{p_c, seen_c, seen_c.z()};
+    if ((p_c - seen_c).norm() > inlierThreshold(c, ransac)) continue;
+    taken[best_i] = true;
+    ++confirmed;
+  }
+  return confirmed;
 }
 
 }  // namespace desslam::loop

@@ -24,6 +24,7 @@
 #include "core/camera.hpp"
 #include "core/options.hpp"
 #include "core/se3.hpp"
+#include "loop/rigid_estimation.hpp"
 #include "place/keyframe_database.hpp"
 #include "map/map.hpp"
 
@@ -44,7 +45,8 @@ struct LoopMatch {
 struct LoopDetectionStats {
   size_t keyframes_checked = 0;
   size_t consistent_candidates = 0;  // candidates that passed the consistency test
-  size_t rejected_geometry = 0;      // ... but failed RANSAC or the guided search
+  size_t rejected_geometry = 0;      // ... but failed RANSAC, the guided search or the confirmation
+  size_t rejected_confirmation = 0;  // of those, fitted but not confirmed by the keyframe's covisibles
   size_t loops_detected = 0;
   size_t merges_detected = 0;        // of those, in another map
 };
@@ -71,6 +73,10 @@ class LoopDetector {
 
   std::vector<map::Keyframe*> consistentCandidates(map::Keyframe* kf, const place::BowVector& bow);
   std::optional<LoopMatch> verify(map::Keyframe* kf, map::Keyframe* candidate, const place::FeatureVector& kf_features);
+  // Features of `nb` that match one of `loop_points` where the pose T_w_nb projects it, with the
+  // descriptor within max_descriptor_distance and nb's 3-D reading within the RANSAC tolerance.
+  int confirmedMatches(map::Keyframe* nb, const SE3& T_w_nb, const std::vector<map::MapPoint*>& loop_points,
+                       const RigidRansacOptions& ransac) const;
   place::BowEncoding encodingOf(map::Keyframe* kf);
 
   LoopOptions options_;

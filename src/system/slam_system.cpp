@@ -635,6 +635,7 @@ nlohmann::json SlamSystem::statistics() const {
     j["loop_closing"] = {{"keyframes_checked", ls.detection.keyframes_checked},
                          {"consistent_candidates", ls.detection.consistent_candidates},
                          {"rejected_by_geometry", ls.detection.rejected_geometry},
+                         {"rejected_by_confirmation", ls.detection.rejected_confirmation},
                          {"loops_detected", ls.loops_detected},
                          {"loops_closed", ls.loops_closed},
                          {"merges_detected", ls.detection.merges_detected},

@@ -82,15 +82,19 @@ struct RunResult {
 // kTwoMaps: no drift, but the second lap is a second map of the atlas whose world is the first's
 // moved by kSecondMapWorld (as tracking starts a new map at identity after a loss); the loop
 // closer must find the first lap in it and merge the two.
-enum class Mode { kNoLoopClosing, kInline, kThreads, kTwoMaps };
+// kTwoMapsBadNeighbours: as kTwoMaps, but every other keyframe of the second map is placed 0.3 m
+// off where it is: each keyframe still recognises the first lap, but no transform from it also
+// explains what its covisible neighbours see (the confirmation must refuse such merges).
+enum class Mode { kNoLoopClosing, kInline, kThreads, kTwoMaps, kTwoMapsBadNeighbours };
 // T_wB_wA: where the first map's world lies in the second's.
 const SE3 kSecondMapWorld(Quat(Eigen::AngleAxisd(0.7, Vec3(0.2, 1.0, 0.1).normalized())), Vec3(0.8, -0.3, 1.5));
 
-RunResult run(Mode mode) {
+RunResult run(Mode mode, int confirm_keyframes = LoopOptions{}.confirm_keyframes) {
   const std::vector<RenderedKeyframe>& rendered = renderedKeyframes();
   SystemOptions options;
   options.camera = sim::syntheticCamera();
   options.loop.enabled = mode != Mode::kNoLoopClosing;
+  options.loop.confirm_keyframes = confirm_keyframes;
   const PinholeCamera camera(options.camera);
   map::Map map;
   place::KeyframeDatabase database(place::loadVocabulary(""), 2);
@@ -104,9 +108,11 @@ RunResult run(Mode mode) {
   if (threads) loop_thread = std::make_unique<LoopClosingThread>(closer, 64);
 
   // Odometry bias per keyframe step: 0.4 deg of yaw and 1 cm sideways.
-  const bool two_maps = mode == Mode::kTwoMaps;
+  const bool bad_neighbours = mode == Mode::kTwoMapsBadNeighbours;
+  const bool two_maps = mode == Mode::kTwoMaps || bad_neighbours;
   const SE3 bias = two_maps ? SE3() : SE3(Quat(Eigen::AngleAxisd(0.4 * kPi / 180, Vec3::UnitY())), Vec3(0.01, 0.0, 0.0));
   int map_id = 0;
+  bool second_map_merged = false;
   std::map<uint64_t, Vec3> true_position;  // map point id -> ground truth (data association only)
   std::vector<map::Keyframe*> created;
   Trajectory truth;
@@ -120,9 +126,15 @@ RunResult run(Mode mode) {
       std::unique_lock lock(map.mutex());
       SE3 T_w_c = r.T_w_c_true;
       const bool second_lap = two_maps && r.timestamp >= rendered.front().timestamp + kFramesPerLap / options.camera.fps;
-      if (second_lap && map_id == 0) map_id = map.createMap(k * kFrameStep, r.timestamp, "lost");
-      if (second_lap) {
+      // After the merge, tracking goes on in the merged map from the last keyframe's pose.
+      if (second_lap && map_id != 0 && created.back()->map_id != map_id) {
+        second_map_merged = true;
+        map_id = created.back()->map_id;
+      }
+      if (second_lap && map_id == 0 && !second_map_merged) map_id = map.createMap(k * kFrameStep, r.timestamp, "lost");
+      if (second_lap && !second_map_merged) {
         T_w_c = kSecondMapWorld * r.T_w_c_true;
+        if (bad_neighbours && k % 2 == 1) T_w_c = T_w_c * SE3(Quat::Identity(), Vec3(0.3, 0.0, 0.0));
       } else if (k > 0) {
         // Odometry from the previous keyframe's present estimate (corrected, if a loop closed).
         const SE3 motion = rendered[k - 1].T_w_c_true.inverse() * r.T_w_c_true;
@@ -255,6 +267,21 @@ TEST(MapMerging, SecondMapIsMergedByTheKnownTransform) {
   EXPECT_EQ(merged.ate.matched, renderedKeyframes().size());
   EXPECT_TRUE(std::any_of(merged.stats.closed.begin(), merged.stats.closed.end(),
                           [](const ClosedLoop& l) { return l.merge; }));
+}
+
+// A merge must hold from the keyframe's covisible neighbours too. With every other keyframe of the
+// second map misplaced, each keyframe alone still finds a transform to the first lap (so without
+// the confirmation the maps are merged), but its neighbours do not see the first lap's points
+// where that transform puts them: no merge.
+TEST(MapMerging, ATransformItsCovisibleKeyframesContradictIsRefused) {
+  const RunResult unconfirmed = run(Mode::kTwoMapsBadNeighbours, 0);
+  const RunResult confirmed = run(Mode::kTwoMapsBadNeighbours);
+  std::printf("misplaced neighbours: %zu merge(s) without confirmation, %zu with (%zu rejected by it)\n",
+              unconfirmed.stats.merges.size(), confirmed.stats.merges.size(),
+              confirmed.stats.detection.rejected_confirmation);
+  EXPECT_GE(unconfirmed.stats.merges.size(), 1u) << "the place must be recognisable for the test to mean anything";
+  EXPECT_EQ(confirmed.stats.merges.size(), 0u);
+  EXPECT_GE(confirmed.stats.detection.rejected_confirmation, 1u);
 }
 
 TEST(LoopOptions, ValidateNamesTheBadKey) {
