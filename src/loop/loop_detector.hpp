@@ -22,10 +22,11 @@
 #include <vector>
 
 #include "core/camera.hpp"
-#include "core/options.hpp"
 #include "core/se3.hpp"
-#include "place/keyframe_database.hpp"
+#include "loop/loop_options.hpp"
+#include "map/atlas_options.hpp"
 #include "map/map.hpp"
+#include "place/keyframe_database.hpp"
 
 namespace desslam::loop {
 
