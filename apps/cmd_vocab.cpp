@@ -20,9 +20,9 @@
 
 #include "commands.hpp"
 #include "core/error.hpp"
-#include "core/options.hpp"
 #include "eval/association.hpp"
 #include "feature/orb_extractor.hpp"
+#include "feature/orb_options.hpp"
 #include "io/data_lines.hpp"
 #include "io/tum_dataset.hpp"
 #include "place/bow_database.hpp"

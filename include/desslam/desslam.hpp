@@ -29,7 +29,7 @@
 
 namespace desslam {
 
-struct SystemOptions;  // internal: every stage's options (src/core/options.hpp)
+struct SystemOptions;  // internal: every stage's options (src/system/system_options.hpp)
 
 // The library's version ("0.1.0").
 std::string version();

@@ -2,9 +2,9 @@
 #include "desslam/dataset.hpp"
 
 #include "api/pose_conversion.hpp"
-#include "core/options.hpp"
 #include "io/trajectory_io.hpp"
 #include "io/tum_dataset.hpp"
+#include "system/system_options.hpp"
 
 namespace desslam {
 

@@ -8,10 +8,10 @@
 
 #include "core/data_location.hpp"
 #include "core/error.hpp"
-#include "core/options.hpp"
 #include "io/config.hpp"
 #include "place/vocabulary_location.hpp"
 #include "system/slam_system.hpp"
+#include "system/system_options.hpp"
 
 #ifndef DESSLAM_VERSION
 #error "DESSLAM_VERSION must be defined by the build (src/api/CMakeLists.txt)"

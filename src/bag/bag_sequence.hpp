@@ -21,7 +21,8 @@
 #include <string>
 #include <vector>
 
-#include "core/options.hpp"
+#include "bag/bag_options.hpp"
+#include "core/camera_options.hpp"
 #include "io/rgbd_sequence.hpp"
 
 namespace desslam::bag {

@@ -8,8 +8,9 @@
 #include <memory>
 #include <string>
 
+#include "bag/bag_options.hpp"
 #include "bag/ros_messages.hpp"
-#include "core/options.hpp"
+#include "core/camera_options.hpp"
 #include "io/rgbd_sequence.hpp"
 
 namespace desslam::bag {

@@ -5,7 +5,7 @@
 #include <filesystem>
 #include <memory>
 
-#include "core/options.hpp"
+#include "bag/bag_options.hpp"
 #include "io/rgbd_sequence.hpp"
 
 namespace desslam::bag {

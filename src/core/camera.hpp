@@ -7,7 +7,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "core/options.hpp"
+#include "core/camera_options.hpp"
 #include "core/types.hpp"
 
 namespace desslam {

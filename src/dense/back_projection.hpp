@@ -6,8 +6,8 @@
 #include <Eigen/Core>
 
 #include "core/camera.hpp"
-#include "core/options.hpp"
 #include "dense/dense_keyframe.hpp"
+#include "dense/dense_options.hpp"
 
 namespace desslam::dense {
 

@@ -37,10 +37,10 @@
 #include <Eigen/Geometry>
 
 #include "core/camera.hpp"
-#include "core/options.hpp"
 #include "core/se3.hpp"
 #include "dense/back_projection.hpp"
 #include "dense/dense_keyframe.hpp"
+#include "dense/dense_options.hpp"
 #include "dense/voxel_index.hpp"
 
 namespace open3d::geometry {

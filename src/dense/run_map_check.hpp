@@ -5,7 +5,7 @@
 
 #include <filesystem>
 
-#include "core/options.hpp"
+#include "core/camera_options.hpp"
 #include "dense/map_check.hpp"
 
 namespace desslam::dense {

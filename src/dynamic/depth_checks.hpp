@@ -20,8 +20,8 @@
 #include <opencv2/core.hpp>
 
 #include "core/camera.hpp"
-#include "core/options.hpp"
 #include "core/se3.hpp"
+#include "dynamic/dynamic_options.hpp"
 #include "map/features.hpp"
 
 namespace desslam::dynamic {

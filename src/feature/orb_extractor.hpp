@@ -6,7 +6,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "core/options.hpp"
+#include "feature/orb_options.hpp"
 #include "feature/scale_pyramid.hpp"
 
 namespace desslam::feature {

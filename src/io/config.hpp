@@ -9,8 +9,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "core/options.hpp"
 #include "io/rgbd_sequence.hpp"
+#include "system/system_options.hpp"
 
 namespace desslam::io {
 

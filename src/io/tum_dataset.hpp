@@ -13,7 +13,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "core/options.hpp"
+#include "core/camera_options.hpp"
 #include "core/trajectory.hpp"
 #include "core/types.hpp"
 #include "io/rgbd_sequence.hpp"

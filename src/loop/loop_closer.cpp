@@ -39,7 +39,7 @@ class PauseScope {
 
 // ---------------------------------------------------------------- LoopCloser
 
-LoopCloser::LoopCloser(const SystemOptions& options, const PinholeCamera& camera, map::Map& map,
+LoopCloser::LoopCloser(const LoopCloserOptions& options, const PinholeCamera& camera, map::Map& map,
                        place::KeyframeDatabase& database, mapping::MappingPause* pause, GlobalBaMode global_ba)
     : options_(options),
       camera_(camera),

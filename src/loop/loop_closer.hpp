@@ -40,14 +40,14 @@
 #include <vector>
 
 #include "core/bounded_queue.hpp"
-#include "core/queue_worker.hpp"
 #include "core/camera.hpp"
-#include "core/options.hpp"
-#include "place/keyframe_database.hpp"
+#include "core/queue_worker.hpp"
 #include "loop/loop_detector.hpp"
+#include "loop/loop_options.hpp"
 #include "map/map.hpp"
-#include "optim/pose_graph.hpp"
 #include "mapping/mapping_pause.hpp"
+#include "optim/pose_graph.hpp"
+#include "place/keyframe_database.hpp"
 
 namespace desslam::loop {
 
@@ -100,8 +100,8 @@ enum class GlobalBaMode { kThread, kInline, kOff };
 class LoopCloser {
  public:
   // pause may be null (no local-mapping thread, e.g. deterministic mode where mapping runs
-  // inline on the caller's thread). options.loop, options.matching and options.atlas are used.
-  LoopCloser(const SystemOptions& options, const PinholeCamera& camera, map::Map& map, place::KeyframeDatabase& database,
+  // inline on the caller's thread).
+  LoopCloser(const LoopCloserOptions& options, const PinholeCamera& camera, map::Map& map, place::KeyframeDatabase& database,
              mapping::MappingPause* pause, GlobalBaMode global_ba = GlobalBaMode::kThread);
   ~LoopCloser();  // aborts and joins a running global BA
 
@@ -160,7 +160,7 @@ class LoopCloser {
   void globalBa(uint64_t newest_keyframe);  // runGlobalBa's work (may throw)
   void notify(const LoopEvent& event);
 
-  SystemOptions options_;
+  LoopCloserOptions options_;
   PinholeCamera camera_;
   map::Map& map_;
   mapping::MappingPause* pause_;

@@ -22,11 +22,12 @@
 #include <vector>
 
 #include "core/camera.hpp"
-#include "core/options.hpp"
 #include "core/se3.hpp"
+#include "loop/loop_options.hpp"
 #include "loop/rigid_estimation.hpp"
-#include "place/keyframe_database.hpp"
+#include "map/atlas_options.hpp"
 #include "map/map.hpp"
+#include "place/keyframe_database.hpp"
 
 namespace desslam::loop {
 

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <random>
 
-#include "core/options.hpp"
+#include "core/option_fields.hpp"
 #include "eval/alignment.hpp"
 
 namespace desslam::loop {

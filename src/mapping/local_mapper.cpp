@@ -51,7 +51,7 @@ Vec3 triangulate(const Vec3& xn1, const Vec3& xn2, const SE3& T1, const SE3& T2)
 }
 }  // namespace
 
-LocalMapper::LocalMapper(const SystemOptions& options, const PinholeCamera& camera, map::Map& map,
+LocalMapper::LocalMapper(const LocalMapperOptions& options, const PinholeCamera& camera, map::Map& map,
                          place::KeyframeDatabase* database)
     : options_(options), camera_(camera), map_(map), database_(database), bf_(camera.bf()) {
   matcher_options_ = options.matching;

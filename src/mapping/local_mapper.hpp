@@ -16,13 +16,13 @@
 #include <vector>
 
 #include "core/bounded_queue.hpp"
-#include "core/queue_worker.hpp"
 #include "core/camera.hpp"
-#include "core/options.hpp"
-#include "place/keyframe_database.hpp"
-#include "mapping/mapping_pause.hpp"
+#include "core/queue_worker.hpp"
 #include "map/map.hpp"
+#include "mapping/mapping_options.hpp"
+#include "mapping/mapping_pause.hpp"
 #include "matching/matcher.hpp"
+#include "place/keyframe_database.hpp"
 
 namespace desslam::mapping {
 
@@ -41,7 +41,7 @@ class LocalMapper {
  public:
   // database (may be null): the keyframe BoW database kept in step with the map (keyframes added
   // after insertion, removed when culled) for relocalisation and loop detection.
-  LocalMapper(const SystemOptions& options, const PinholeCamera& camera, map::Map& map,
+  LocalMapper(const LocalMapperOptions& options, const PinholeCamera& camera, map::Map& map,
               place::KeyframeDatabase* database = nullptr);
 
   // abort_ba (may be null) stops bundle adjustment early when set (a newer keyframe is waiting).
@@ -56,7 +56,7 @@ class LocalMapper {
   void localBundleAdjustment(map::Keyframe* kf, const std::atomic<bool>* abort_ba);
   void cullRedundantKeyframes(map::Keyframe* kf);
 
-  SystemOptions options_;
+  LocalMapperOptions options_;
   PinholeCamera camera_;
   map::Map& map_;
   place::KeyframeDatabase* database_;

@@ -9,6 +9,7 @@
 #include "core/camera.hpp"
 #include "map/frame.hpp"
 #include "map/map.hpp"
+#include "matching/matcher_options.hpp"
 
 namespace desslam::matching {
 

@@ -8,7 +8,7 @@
 #include <ceres/manifold.h>
 
 #include "core/error.hpp"
-#include "core/options.hpp"
+#include "core/option_fields.hpp"
 
 namespace desslam::optim {
 

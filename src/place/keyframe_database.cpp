@@ -3,7 +3,7 @@
 #include <string>
 
 #include "core/error.hpp"
-#include "core/options.hpp"
+#include "core/option_fields.hpp"
 
 namespace desslam::place {
 

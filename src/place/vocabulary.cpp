@@ -15,7 +15,7 @@
 
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
-#include "core/options.hpp"
+#include "core/option_fields.hpp"
 #include "feature/descriptor.hpp"
 
 namespace desslam::place {

@@ -33,10 +33,11 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
-#include "core/options.hpp"
+#include "core/camera_options.hpp"
 #include "core/se3.hpp"
 #include "core/trajectory.hpp"
 #include "core/types.hpp"
+#include "plausibility/plausibility_options.hpp"
 
 namespace desslam::plausibility {
 

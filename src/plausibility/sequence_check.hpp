@@ -4,9 +4,10 @@
 
 #include <cstddef>
 
-#include "core/options.hpp"
+#include "core/camera_options.hpp"
 #include "io/rgbd_sequence.hpp"
 #include "plausibility/depth_scale.hpp"
+#include "plausibility/plausibility_options.hpp"
 
 namespace desslam::plausibility {
 

@@ -11,8 +11,8 @@
 
 #include <opencv2/core/mat.hpp>
 
-#include "core/options.hpp"
 #include "semantic/segmenter.hpp"
+#include "semantic/semantic_options.hpp"
 
 namespace desslam::semantic {
 

@@ -6,7 +6,7 @@
 
 #include <opencv2/core/mat.hpp>
 
-#include "core/options.hpp"
+#include "semantic/semantic_options.hpp"
 
 namespace desslam::semantic {
 

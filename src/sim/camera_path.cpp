@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "core/error.hpp"
-#include "core/options.hpp"
+#include "core/option_fields.hpp"
 
 namespace desslam::sim {
 

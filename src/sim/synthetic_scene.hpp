@@ -14,7 +14,8 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
-#include "core/options.hpp"
+#include "core/camera_options.hpp"
+#include "core/option_fields.hpp"
 #include "core/se3.hpp"
 #include "core/trajectory.hpp"
 #include "sim/camera_path.hpp"

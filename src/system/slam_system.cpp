@@ -57,8 +57,8 @@ SlamSystem::SlamSystem(const SystemOptions& options, const RunSettings& settings
       extractor_(options.orb),
       pyramid_(std::make_shared<feature::ScalePyramid>(extractor_.pyramid())),
       keyframe_db_(makeKeyframeDatabase(options)),
-      tracker_(options, camera_, map_, keyframe_db_.get()),
-      mapper_(options, camera_, map_, keyframe_db_.get()) {
+      tracker_(trackerOptions(options), camera_, map_, keyframe_db_.get()),
+      mapper_(localMapperOptions(options), camera_, map_, keyframe_db_.get()) {
   options_.validate();
   if (settings_.mask_latency_frames < 0 || settings_.mask_period_frames < 1 ||
       (settings_.mask_latency_frames > 0 && settings_.realtime))
@@ -66,7 +66,7 @@ SlamSystem::SlamSystem(const SystemOptions& options, const RunSettings& settings
                       "latency (leave the emulation off with --realtime)");
   if (options_.loop.enabled)
     loop_closer_ = std::make_unique<loop::LoopCloser>(
-        options_, camera_, map_, *keyframe_db_, settings_.deterministic ? nullptr : &mapping_pause_,
+        loopCloserOptions(options_), camera_, map_, *keyframe_db_, settings_.deterministic ? nullptr : &mapping_pause_,
         settings_.deterministic ? loop::GlobalBaMode::kInline : loop::GlobalBaMode::kThread);
   if (usesMask(options_.dynamic.mode)) {
     std::unique_ptr<semantic::Segmenter> segmenter = semantic::makeSegmenter(options_.semantic);

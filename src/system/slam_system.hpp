@@ -22,15 +22,15 @@
 #include <nlohmann/json.hpp>
 
 #include "core/camera.hpp"
-#include "core/options.hpp"
 #include "core/trajectory.hpp"
 #include "dynamic/mask_propagation.hpp"
 #include "feature/orb_extractor.hpp"
-#include "map/map.hpp"
-#include "place/keyframe_database.hpp"
 #include "loop/loop_closer.hpp"
+#include "map/map.hpp"
 #include "mapping/local_mapper.hpp"
 #include "optim/map_bundle_adjustment.hpp"
+#include "place/keyframe_database.hpp"
+#include "system/system_options.hpp"
 #include "tracking/tracker.hpp"
 
 namespace desslam::semantic {

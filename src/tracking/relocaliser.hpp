@@ -12,11 +12,11 @@
 #include <vector>
 
 #include "core/camera.hpp"
-#include "core/options.hpp"
 #include "core/se3.hpp"
-#include "place/keyframe_database.hpp"
 #include "map/frame.hpp"
 #include "map/map.hpp"
+#include "place/keyframe_database.hpp"
+#include "tracking/tracking_options.hpp"
 
 namespace desslam::tracking {
 

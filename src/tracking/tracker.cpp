@@ -49,7 +49,7 @@ void keepUnverifiedMaskedFeaturesOut(map::Frame& frame) {
 }
 }  // namespace
 
-Tracker::Tracker(const SystemOptions& options, const PinholeCamera& camera, map::Map& map,
+Tracker::Tracker(const TrackerOptions& options, const PinholeCamera& camera, map::Map& map,
                  const place::KeyframeDatabase* database)
     : options_(options), camera_(camera), map_(map), bf_(camera.bf()) {
   if (database != nullptr && options.relocalisation.enabled)

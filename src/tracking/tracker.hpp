@@ -12,11 +12,11 @@
 #include <vector>
 
 #include "core/camera.hpp"
-#include "core/options.hpp"
 #include "map/frame.hpp"
 #include "map/map.hpp"
 #include "matching/matcher.hpp"
 #include "tracking/relocaliser.hpp"
+#include "tracking/tracking_options.hpp"
 
 namespace desslam::tracking {
 
@@ -50,7 +50,7 @@ struct TrackOutcome {
 class Tracker {
  public:
   // database (may be null: no relocalisation): the keyframe BoW database local mapping keeps.
-  Tracker(const SystemOptions& options, const PinholeCamera& camera, map::Map& map,
+  Tracker(const TrackerOptions& options, const PinholeCamera& camera, map::Map& map,
           const place::KeyframeDatabase* database = nullptr);
 
   // frame.features and frame.status are set; writes frame.T_c_w and frame.matches.
@@ -118,7 +118,7 @@ class Tracker {
   cv::Mat halfDepthFor(const map::Frame& frame) const;
   void createDepthPoints(map::Frame& frame, const std::vector<map::FeatureStatus>& status, map::Keyframe* kf);  // exclusive lock held
 
-  SystemOptions options_;
+  TrackerOptions options_;
   PinholeCamera camera_;
   map::Map& map_;
   double bf_;

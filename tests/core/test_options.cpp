@@ -1,5 +1,5 @@
 // Options: defaults validate, and every rejection names the offending "section.key".
-#include "core/options.hpp"
+#include "system/system_options.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -4,9 +4,10 @@
 #include <opencv2/core.hpp>
 
 #include "core/camera.hpp"
-#include "core/options.hpp"
+#include "core/camera_options.hpp"
 #include "core/se3.hpp"
 #include "dense/dense_keyframe.hpp"
+#include "dense/dense_options.hpp"
 
 namespace desslam::dense::test {
 

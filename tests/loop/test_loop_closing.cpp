@@ -30,6 +30,7 @@
 #include "map/map.hpp"
 #include "sim/camera_path.hpp"
 #include "sim/synthetic_scene.hpp"
+#include "system/system_options.hpp"
 
 namespace desslam::loop {
 namespace {
@@ -102,7 +103,7 @@ RunResult run(Mode mode, int confirm_keyframes = LoopOptions{}.confirm_keyframes
   // pause as LocalMappingThread would); loop closing and global BA run in their own threads.
   mapping::MappingPause pause;
   const bool threads = mode == Mode::kThreads;
-  LoopCloser closer(options, camera, map, database, threads ? &pause : nullptr,
+  LoopCloser closer(loopCloserOptions(options), camera, map, database, threads ? &pause : nullptr,
                     threads ? GlobalBaMode::kThread : GlobalBaMode::kInline);
   std::unique_ptr<LoopClosingThread> loop_thread;
   if (threads) loop_thread = std::make_unique<LoopClosingThread>(closer, 64);

@@ -25,12 +25,12 @@
 
 #include <nlohmann/json.hpp>
 
-#include "core/options.hpp"
 #include "core/trajectory.hpp"
 #include "io/tum_dataset.hpp"
 #include "sim/camera_path.hpp"
 #include "sim/synthetic_scene.hpp"
 #include "system/slam_system.hpp"
+#include "system/system_options.hpp"
 
 namespace desslam::test {
 

@@ -12,17 +12,17 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/camera.hpp"
-#include "core/options.hpp"
 #include "feature/orb_extractor.hpp"
-#include "place/keyframe_database.hpp"
-#include "place/vocabulary_location.hpp"
 #include "map/frame.hpp"
 #include "map/map.hpp"
 #include "mapping/local_mapper.hpp"
+#include "place/keyframe_database.hpp"
+#include "place/vocabulary_location.hpp"
 #include "sim/camera_path.hpp"
 #include "sim/synthetic_scene.hpp"
-#include "tracking/synthetic_frame.hpp"
+#include "system/system_options.hpp"
 #include "tracking/relocaliser.hpp"
+#include "tracking/synthetic_frame.hpp"
 #include "tracking/tracker.hpp"
 
 namespace desslam::tracking::test {
@@ -42,8 +42,8 @@ class RelocalisationScene {
         pyramid_(std::make_shared<feature::ScalePyramid>(extractor_.pyramid())),
         vocabulary_(place::loadVocabulary(options_.relocalisation.vocabulary)),
         database_(vocabulary_, options_.relocalisation.direct_index_level),
-        tracker_(options_, camera_, map_),
-        mapper_(options_, camera_, map_) {
+        tracker_(trackerOptions(options_), camera_, map_),
+        mapper_(localMapperOptions(options_), camera_, map_) {
     for (size_t i = 0; i < path_.size(); ++i) {
       map::Frame frame = render(path_[i].T_w_c, path_[i].timestamp, i);
       const TrackOutcome outcome = tracker_.track(frame, /*mapping_idle=*/true);

@@ -10,11 +10,11 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/camera.hpp"
-#include "core/options.hpp"
 #include "feature/orb_extractor.hpp"
 #include "map/features.hpp"
 #include "map/frame.hpp"
 #include "sim/synthetic_scene.hpp"
+#include "tracking/tracking_options.hpp"
 
 namespace desslam::test {
 

@@ -19,13 +19,13 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/camera.hpp"
-#include "core/options.hpp"
 #include "feature/orb_extractor.hpp"
 #include "map/frame.hpp"
 #include "map/map.hpp"
 #include "mapping/local_mapper.hpp"
 #include "sim/camera_path.hpp"
 #include "sim/synthetic_scene.hpp"
+#include "system/system_options.hpp"
 #include "tracking/synthetic_frame.hpp"
 #include "tracking/tracker.hpp"
 
@@ -50,8 +50,8 @@ class Rig {
         scene_(sim::SceneOptions{}, options_.camera),
         extractor_(options_.orb),
         pyramid_(std::make_shared<feature::ScalePyramid>(extractor_.pyramid())),
-        tracker_(options_, camera_, map_),
-        mapper_(options_, camera_, map_) {
+        tracker_(trackerOptions(options_), camera_, map_),
+        mapper_(localMapperOptions(options_), camera_, map_) {
     options_.validate();
   }
 

@@ -1,0 +1,45 @@
+// atlas.*: several maps in one run. Read by tracking and loop closing; here in the map library,
+// the lowest one both link.
+#pragma once
+
+#include "core/option_fields.hpp"
+
+namespace desslam {
+
+// Continuity (tracking/tracker.hpp, loop/loop_closer.hpp): when a map cannot be started or
+// tracking is lost, a new map starts instead of waiting; place recognition merges maps again.
+struct AtlasOptions {
+  bool enabled = true;  // off: lost stays lost until relocalisation succeeds (one map)
+  // A map starts only from a frame with this many static, depth-backed features (ORB-SLAM2's RGB-D
+  // start asks for 500), spread over at least min_initial_cells of a 4 x 4 image grid (a corner
+  // left by a crowd is too weak an anchor); otherwise the next frame is tried.
+  int min_initial_features = 500;
+  int min_initial_cells = 6;
+  // Relocalisation (against every map) is tried for this long after a loss; then a new map starts
+  // at the current frame. 0: at the first frame relocalisation fails.
+  double new_map_after_lost_s = 0.1;
+  // A map lost before it has this many keyframes gets no relocalisation time: a new one starts at
+  // once (a young map has too little to relocalise against).
+  int young_map_keyframes = 5;
+  // A keyframe recognised in another map must recur over this many consecutive keyframes before
+  // the maps are merged (loop.min_consistent_keyframes applies to loops within a map).
+  int merge_min_consistent_keyframes = 2;
+  // A merge's first, BoW-guided matching pairs the keyframe's features with the map points of the
+  // candidate and its best covisibles, this many keyframes in all (1: the candidate alone): a map
+  // started in a crowd is often seen again only 20-30 degrees apart, by keyframes holding 100-300
+  // map points, too few alone. Loops within a map match the candidate alone: there a missed loop
+  // costs some drift, while a wider match let walkers moving as one body fit false loops (Bonn).
+  int merge_match_keyframes = 5;
+
+  static constexpr const char* kSection = "atlas";
+  template <class V> void fields(V& v) {
+    v("enabled", enabled); v("min_initial_features", min_initial_features);
+    v("min_initial_cells", min_initial_cells); v("new_map_after_lost_s", new_map_after_lost_s);
+    v("young_map_keyframes", young_map_keyframes);
+    v("merge_min_consistent_keyframes", merge_min_consistent_keyframes);
+    v("merge_match_keyframes", merge_match_keyframes);
+  }
+  void validate() const;
+};
+
+}  // namespace desslam
