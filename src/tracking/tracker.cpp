@@ -74,6 +74,8 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     if (last_reference_ != nullptr) last_frame_.T_c_w = last_T_c_r_ * map::keyframeTcw(last_reference_);
     for (HistoryFrame& h : history_)
       if (h.reference != nullptr) h.frame.T_c_w = h.T_c_r * map::keyframeTcw(h.reference);
+    for (RecentPose& r : recent_poses_)
+      if (r.reference != nullptr) r.T_c_w = r.T_c_r * map::keyframeTcw(r.reference);
     if (reference_keyframe_ != nullptr) active_map_ = reference_keyframe_->map_id;
   }
 
@@ -242,10 +244,10 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     active_map_ = reference_keyframe_->map_id;
   }
   records_.push_back({frame.id, frame.timestamp, reference_keyframe_, last_T_c_r_, active_map_});
-  if (!recent_T_c_w_.empty() && recent_T_c_w_.back().first >= frame.timestamp) recent_T_c_w_.clear();
-  if (recovering) recent_T_c_w_.clear();  // the frames before the gap may be in another map
-  recent_T_c_w_.emplace_back(frame.timestamp, frame.T_c_w);
-  while (recent_T_c_w_.size() > kBridgeVelocityFrames + 1) recent_T_c_w_.pop_front();
+  if (!recent_poses_.empty() && recent_poses_.back().timestamp >= frame.timestamp) recent_poses_.clear();
+  if (recovering) recent_poses_.clear();  // the frames before the gap may be in another map
+  recent_poses_.push_back({frame.timestamp, reference_keyframe_, last_T_c_r_, frame.T_c_w});
+  while (recent_poses_.size() > kBridgeVelocityFrames + 1) recent_poses_.pop_front();
   // Visual-odometry matches only serve the next frame's motion-model search.
   last_frame_ = frame;
   pushHistory(frame, reference_keyframe_, last_T_c_r_);
@@ -406,7 +408,7 @@ bool Tracker::disagreesWithBridge(const map::Frame& frame) const {
   // Only a bridge resting on an established motion (kBridgeVelocityFrames tracked frames in a row)
   // is trusted to judge: one built on a single frame found again after a loss is no better than
   // the frame it would judge.
-  if (a <= 0 || recent_T_c_w_.size() < kBridgeVelocityFrames + 1) return false;
+  if (a <= 0 || recent_poses_.size() < kBridgeVelocityFrames + 1) return false;
   const double seconds = std::max(frame.timestamp - last_frame_.timestamp, 1.0 / 30.0);
   const SE3 bridged = bridgedPose(frame.timestamp);
   const double off_m = (frame.T_c_w.inverse().translation() - bridged.inverse().translation()).norm();
@@ -416,9 +418,11 @@ bool Tracker::disagreesWithBridge(const map::Frame& frame) const {
 SE3 Tracker::bridgedPose(Timestamp t) const {
   // Constant velocity over the last kBridgeVelocityFrames tracked frames, from the last one.
   const SE3 one_step = motionOver(t - last_frame_.timestamp) * last_frame_.T_c_w;
-  if (recent_T_c_w_.size() < 2) return one_step;
-  const auto& [t0, T0] = recent_T_c_w_.front();
-  const auto& [t1, T1] = recent_T_c_w_.back();
+  if (recent_poses_.size() < 2) return one_step;
+  const Timestamp t0 = recent_poses_.front().timestamp;
+  const Timestamp t1 = recent_poses_.back().timestamp;
+  const SE3& T0 = recent_poses_.front().T_c_w;
+  const SE3& T1 = recent_poses_.back().T_c_w;
   if (!(t1 - t0 > 1e-6)) return one_step;
   const SE3 motion = T1 * T0.inverse();
   return SE3::exp(motion.log() * ((t - t1) / (t1 - t0))) * last_frame_.T_c_w;

@@ -132,10 +132,17 @@ class Tracker {
   SE3 last_T_c_r_;
   std::optional<SE3> velocity_;  // T_current_last of the previous step
   double velocity_interval_s_ = 0;  // the time that step took
-  // The last tracked frames' poses (as tracked, oldest first): the motion bridged through a loss
-  // is their average over kBridgeVelocityFrames, not the last step's, which walkers crossing the
-  // view just before the loss disturb most.
-  std::deque<std::pair<Timestamp, SE3>> recent_T_c_w_;
+  // The last tracked frames' poses (oldest first): the motion bridged through a loss is their
+  // average over kBridgeVelocityFrames, not the last step's, which walkers crossing the view just
+  // before the loss disturb most. Each pose follows its reference keyframe (as history_ does):
+  // a merge or loop correction between two of them would otherwise count as camera motion.
+  struct RecentPose {
+    Timestamp timestamp = 0;
+    const map::Keyframe* reference = nullptr;
+    SE3 T_c_r;
+    SE3 T_c_w;
+  };
+  std::deque<RecentPose> recent_poses_;
   SE3 bridgedPose(Timestamp t) const;
   // tracking.max_acceleration_m_s2: the frame's pose is too far from bridgedPose().
   bool disagreesWithBridge(const map::Frame& frame) const;
