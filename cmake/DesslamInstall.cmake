@@ -51,6 +51,9 @@ if(PROJECT_IS_TOP_LEVEL)
   set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
   set(CPACK_DEBIAN_RUNTIME_PACKAGE_NAME desslam)
   set(CPACK_DEBIAN_DEVELOPMENT_PACKAGE_NAME desslam-dev)
+  # The Python module (dist-packages/desslam) takes numpy arrays; dpkg-shlibdeps cannot see that.
+  # A recommendation: the program and the C++ library work without Python.
+  set(CPACK_DEBIAN_RUNTIME_PACKAGE_RECOMMENDS "python3 (>= 3.11), python3-numpy")
   set(CPACK_DEBIAN_DEVELOPMENT_PACKAGE_SECTION libdevel)
   # The public header includes Eigen and OpenCV core; desslamConfig.cmake finds their CMake files.
   set(CPACK_DEBIAN_DEVELOPMENT_PACKAGE_DEPENDS "desslam (= ${PROJECT_VERSION}), libeigen3-dev, libopencv-dev")
