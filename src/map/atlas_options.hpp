@@ -28,7 +28,7 @@ struct AtlasOptions {
   // candidate and its best covisibles, this many keyframes in all (1: the candidate alone): a map
   // started in a crowd is often seen again only 20-30 degrees apart, by keyframes holding 100-300
   // map points, too few alone. Loops within a map match the candidate alone: there a missed loop
-  // costs some drift, while a wider match let walkers moving as one body fit false loops (Bonn).
+  // costs some drift, while a wider match closed 6 false loops on Bonn crowd (walkers, presumably).
   int merge_match_keyframes = 5;
 
   static constexpr const char* kSection = "atlas";

@@ -249,8 +249,8 @@ TEST(TrackerBridging, ACoveredFrameGetsTheAverageMotionOfTheLastFiveTrackedFrame
 }
 
 // A map merge (or loop correction) moves the map's world while the bridge's last five frames are
-// being collected: the bridge must still be the camera's motion, not the world's jump. Three
-// frames are tracked, the world moves by 0.5 m and 20 degrees, three more are tracked, then a
+// being collected: the bridge must still be the camera's motion, not the world's jump. Seven
+// frames are tracked, the world moves by 0.6 m and 20 degrees, three more are tracked, then a
 // covered frame is bridged: its step is the average step seen in the moved world.
 TEST(TrackerBridging, AMergeThatMovesTheWorldDoesNotEnterTheBridgedMotion) {
   SystemOptions options = baseOptions();
