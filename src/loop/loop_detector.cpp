@@ -29,6 +29,36 @@ bool cameraPoint(const map::Keyframe* kf, int i, const PinholeCamera& camera, Ve
   return p_c.z() > 0;
 }
 
+// The feature of `kf` whose descriptor is closest to `p`'s where the pose T_c_w (camera centre
+// `center`) projects it, searched at the predicted pyramid level within radius_px (level 0) scaled
+// to it, among the features `available(i)` accepts; -1 when none is within max_distance. p_c: the
+// point in the camera frame.
+template <class Available>
+int projectedMatch(const map::Keyframe* kf, const SE3& T_c_w, const Vec3& center, const map::MapPoint* p,
+                   const PinholeCamera& camera, double radius_px, int max_distance, Available available, Vec3& p_c) {
+  if (p->descriptor.empty()) return -1;
+  p_c = T_c_w * p->position;
+  if (p_c.z() <= 0) return -1;
+  const Vec2 uv = camera.project(p_c);
+  if (!camera.inImage(uv)) return -1;
+  const map::FeatureSet& f = *kf->features;
+  const auto& pyramid = *f.pyramid;
+  const double distance = (p->position - center).norm();
+  if (p->max_distance > 0 && (distance < 0.8 * p->min_distance || distance > 1.2 * p->max_distance)) return -1;
+  const int level = p->max_distance > 0 ? map::predictLevel(p, distance, pyramid) : 0;
+  const double radius = radius_px * pyramid.scale[level];
+  int best = feature::kMaxDescriptorDistance + 1, best_i = -1;
+  for (int i : f.inArea(uv.x(), uv.y(), radius, std::max(0, level - 1), level + 1)) {
+    if (!kf->usable(i) || !available(i)) continue;
+    const int d = feature::descriptorDistance(p->descriptor.ptr<uint8_t>(), f.descriptor(i));
+    if (d < best) {
+      best = d;
+      best_i = i;
+    }
+  }
+  return best <= max_distance ? best_i : -1;
+}
+
 RigidRansacOptions ransacOptions(const LoopOptions& o) {
   RigidRansacOptions r;
   r.iterations = o.ransac_iterations;
@@ -282,34 +312,24 @@ std::optional<LoopMatch> LoopDetector::verify(map::Keyframe* kf, map::Keyframe* 
       matched[owners[k].first] = owners[k].second;
       used.insert(owners[k].second);
     }
-  const SE3 T_c_w = first.T_a_b.inverse();
-  const Vec3 center = first.T_a_b.translation();
-  std::map<uint64_t, map::MapPoint*> group_points;
+  // The candidate group's points, by id (the confirmation below projects the same ones).
+  std::vector<map::MapPoint*> loop_points;
   std::vector<map::Keyframe*> group{candidate};
   for (map::Keyframe* nb : map::bestCovisibles(candidate, options_.group_size)) group.push_back(nb);
   for (map::Keyframe* g : group)
     for (map::MapPoint* p : g->points)
-      if (p != nullptr && !p->bad && used.count(p) == 0) group_points.emplace(p->id, p);
-  const auto& pyramid = *fa.pyramid;
-  for (auto& [id, p] : group_points) {
-    const Vec3 p_c = T_c_w * p->position;
-    if (p_c.z() <= 0) continue;
-    const Vec2 uv = camera_.project(p_c);
-    if (!camera_.inImage(uv)) continue;
-    const double distance = (p->position - center).norm();
-    if (p->max_distance > 0 && (distance < 0.8 * p->min_distance || distance > 1.2 * p->max_distance)) continue;
-    const int level = p->max_distance > 0 ? map::predictLevel(p, distance, pyramid) : 0;
-    const double radius = options_.projection_radius_px * pyramid.scale[level];
-    int best = feature::kMaxDescriptorDistance + 1, best_i = -1;
-    for (int i : fa.inArea(uv.x(), uv.y(), radius, std::max(0, level - 1), level + 1)) {
-      if (matched[i] != nullptr || !kf->usable(i) || p->descriptor.empty()) continue;
-      const int d = feature::descriptorDistance(p->descriptor.ptr<uint8_t>(), fa.descriptor(i));
-      if (d < best) {
-        best = d;
-        best_i = i;
-      }
-    }
-    if (best_i >= 0 && best <= options_.max_descriptor_distance) matched[best_i] = p;
+      if (p != nullptr && !p->bad) loop_points.push_back(p);
+  std::sort(loop_points.begin(), loop_points.end(),
+            [](const map::MapPoint* a, const map::MapPoint* b) { return a->id < b->id; });
+  loop_points.erase(std::unique(loop_points.begin(), loop_points.end()), loop_points.end());
+  const SE3 T_c_w = first.T_a_b.inverse();
+  const Vec3 center = first.T_a_b.translation();
+  for (map::MapPoint* p : loop_points) {
+    if (used.count(p) != 0) continue;
+    Vec3 p_c;
+    const int i = projectedMatch(kf, T_c_w, center, p, camera_, options_.projection_radius_px,
+                                 options_.max_descriptor_distance, [&](int j) { return matched[j] == nullptr; }, p_c);
+    if (i >= 0) matched[i] = p;
   }
 
   // 3. Refit on every match; the loop stands when enough agree.
@@ -332,13 +352,6 @@ std::optional<LoopMatch> LoopDetector::verify(map::Keyframe* kf, map::Keyframe* 
   // 4. Confirmation from the keyframe's best covisibles: a transform fitted to a coincidence
   // (walkers, repeated texture) rarely also explains what the neighbouring keyframes see.
   if (options_.confirm_keyframes > 0) {
-    std::vector<map::MapPoint*> loop_points;
-    for (map::Keyframe* g : group)
-      for (map::MapPoint* p : g->points)
-        if (p != nullptr && !p->bad) loop_points.push_back(p);
-    std::sort(loop_points.begin(), loop_points.end(),
-              [](const map::MapPoint* a, const map::MapPoint* b) { return a->id < b->id; });
-    loop_points.erase(std::unique(loop_points.begin(), loop_points.end()), loop_points.end());
     const std::vector<map::Keyframe*> confirmers = map::bestCovisibles(kf, options_.confirm_keyframes);
     if (confirmers.empty()) return rejected("confirmation (no covisible keyframe)", final_fit.inlier_count);
     for (map::Keyframe* nb : confirmers) {
@@ -367,38 +380,19 @@ std::optional<LoopMatch> LoopDetector::verify(map::Keyframe* kf, map::Keyframe* 
 
 int LoopDetector::confirmedMatches(map::Keyframe* nb, const SE3& T_w_nb, const std::vector<map::MapPoint*>& loop_points,
                                    const RigidRansacOptions& ransac) const {
-  const map::FeatureSet& f = *nb->features;
-  const auto& pyramid = *f.pyramid;
   const SE3 T_nb_w = T_w_nb.inverse();
-  const Vec3 center = T_w_nb.translation();
-  std::vector<bool> taken(f.size(), false);
+  std::vector<bool> taken(nb->features->size(), false);
   int confirmed = 0;
   for (const map::MapPoint* p : loop_points) {
-    if (p->descriptor.empty()) continue;
-    const Vec3 p_c = T_nb_w * p->position;
-    if (p_c.z() <= 0) continue;
-    const Vec2 uv = camera_.project(p_c);
-    if (!camera_.inImage(uv)) continue;
-    const double distance = (p->position - center).norm();
-    if (p->max_distance > 0 && (distance < 0.8 * p->min_distance || distance > 1.2 * p->max_distance)) continue;
-    const int level = p->max_distance > 0 ? map::predictLevel(p, distance, pyramid) : 0;
-    const double radius = options_.projection_radius_px * pyramid.scale[level];
-    int best = feature::kMaxDescriptorDistance + 1, best_i = -1;
-    for (int i : f.inArea(uv.x(), uv.y(), radius, std::max(0, level - 1), level + 1)) {
-      if (taken[i] || !nb->usable(i)) continue;
-      const int d = feature::descriptorDistance(p->descriptor.ptr<uint8_t>(), f.descriptor(i));
-      if (d < best) {
-        best = d;
-        best_i = i;
-      }
-    }
-    if (best_i < 0 || best > options_.max_descriptor_distance) continue;
+    Vec3 p_c;
+    const int i = projectedMatch(nb, T_nb_w, T_w_nb.translation(), p, camera_, options_.projection_radius_px,
+                                 options_.max_descriptor_distance, [&](int j) { return !taken[j]; }, p_c);
     // The neighbour's own depth must agree in 3-D, as the RANSAC inliers did.
     Vec3 seen_c;
-    if (!cameraPoint(nb, best_i, camera_, seen_c)) continue;
+    if (i < 0 || !cameraPoint(nb, i, camera_, seen_c)) continue;
     const PointCorrespondence c{p_c, seen_c, seen_c.z()};
     if ((p_c - seen_c).norm() > inlierThreshold(c, ransac)) continue;
-    taken[best_i] = true;
+    taken[i] = true;
     ++confirmed;
   }
   return confirmed;
