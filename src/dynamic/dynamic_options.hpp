@@ -82,7 +82,8 @@ struct DynamicOptions {
   // When people fill most of the view, the ORB budget (orb.num_features, spread evenly over the
   // image) leaves few features on the static background, and tracking is lost once stage 1 has
   // removed the people's. A frame with fewer features than this outside its (dilated) mask gets
-  // this many more extracted outside it (duplicates skipped). 0 = off.
+  // more extracted outside it (duplicates skipped). While tracking is lost the target is at least
+  // atlas.min_initial_features features with depth, what a new map needs. 0 = off.
   int min_features_outside_mask = 500;
   // Full mode: features outside the mask go through the correspondence-free free-space test
   // (dynamic::freeSpaceViolations) against the stage-1 reference frame and the reference

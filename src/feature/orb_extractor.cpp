@@ -291,4 +291,50 @@ int appendDistinctKeypoints(std::vector<cv::KeyPoint>& keypoints, cv::Mat& descr
   return static_cast<int>(rows.size());
 }
 
+int topUpOutside(const OrbExtractor& extractor, const cv::Mat& gray, const cv::Mat& exclude, const cv::Mat& depth_m,
+                 double min_depth_m, double max_depth_m, int wanted_with_depth, std::vector<cv::KeyPoint>& keypoints,
+                 cv::Mat& descriptors) {
+  if (wanted_with_depth <= 0) return 0;
+  if (exclude.type() != CV_8UC1 || exclude.size() != gray.size())
+    throw InputError("topUpOutside: the exclusion mask must be CV_8UC1 of the image's size " +
+                     std::to_string(gray.cols) + "x" + std::to_string(gray.rows));
+  if (!depth_m.empty() && (depth_m.type() != CV_32FC1 || depth_m.size() != gray.size()))
+    throw InputError("topUpOutside: the depth image must be CV_32FC1 metres of the image's size " +
+                     std::to_string(gray.cols) + "x" + std::to_string(gray.rows));
+  // (outside the mask, of which with depth)
+  const auto count = [&] {
+    std::pair<int, int> n{0, 0};
+    for (const cv::KeyPoint& kp : keypoints) {
+      const int x = std::clamp(cvRound(kp.pt.x), 0, exclude.cols - 1);
+      const int y = std::clamp(cvRound(kp.pt.y), 0, exclude.rows - 1);
+      if (exclude.at<uint8_t>(y, x) != 0) continue;
+      ++n.first;
+      const float d = depth_m.empty() ? static_cast<float>(min_depth_m) : depth_m.at<float>(y, x);
+      if (d >= min_depth_m && d <= max_depth_m) ++n.second;
+    }
+    return n;
+  };
+  // The depth-backed share of the keypoints outside only estimates that of the ones to come:
+  // re-estimated after each round; a few rounds, and none once the texture gives nothing new.
+  constexpr int kRounds = 3;
+  int appended = 0;
+  int last_requested = 0;
+  for (int round = 0; round < kRounds; ++round) {
+    const auto [outside, with_depth] = count();
+    if (with_depth >= wanted_with_depth) break;
+    // The floor keeps a view without depth from asking for an unbounded number of features.
+    const double depth_share = outside > 0 ? std::max(0.25, double(with_depth) / outside) : 1.0;
+    const int requested = outside + static_cast<int>(std::ceil((wanted_with_depth - with_depth) / depth_share));
+    if (requested <= last_requested) break;  // the same request finds the same keypoints
+    last_requested = requested;
+    std::vector<cv::KeyPoint> extra;
+    cv::Mat extra_descriptors;
+    extractor.extractOutside(gray, exclude, requested, extra, extra_descriptors);
+    const int added = appendDistinctKeypoints(keypoints, descriptors, extra, extra_descriptors, extractor.pyramid());
+    appended += added;
+    if (added == 0) break;
+  }
+  return appended;
+}
+
 }  // namespace desslam::feature

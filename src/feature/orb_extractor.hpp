@@ -53,4 +53,14 @@ int appendDistinctKeypoints(std::vector<cv::KeyPoint>& keypoints, cv::Mat& descr
                             const std::vector<cv::KeyPoint>& extra, const cv::Mat& extra_descriptors,
                             const ScalePyramid& pyramid);
 
+// Tops up (keypoints, descriptors) outside `exclude` (CV_8UC1, non-zero = excluded) until at
+// least `wanted_with_depth` keypoints there have a depth in [min_depth_m, max_depth_m] in depth_m
+// (CV_32FC1 metres, registered to the image; empty: every keypoint counts), as far as the texture
+// allows. The extractor is asked for the shortfall divided by the depth-backed share of the
+// keypoints already outside (at least a quarter), in up to 3 rounds. Returns how many keypoints
+// were appended (0 when there were enough).
+int topUpOutside(const OrbExtractor& extractor, const cv::Mat& gray, const cv::Mat& exclude, const cv::Mat& depth_m,
+                 double min_depth_m, double max_depth_m, int wanted_with_depth, std::vector<cv::KeyPoint>& keypoints,
+                 cv::Mat& descriptors);
+
 }  // namespace desslam::feature

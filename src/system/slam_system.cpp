@@ -183,22 +183,6 @@ cv::Mat SlamSystem::maskFor(uint64_t frame_id, const std::shared_ptr<const cv::M
   return grown.mask;
 }
 
-int SlamSystem::topUpOutsideMask(const cv::Mat& gray, const cv::Mat& mask, std::vector<cv::KeyPoint>& keypoints,
-                                 cv::Mat& descriptors) const {
-  const int wanted = options_.dynamic.min_features_outside_mask;
-  if (wanted <= 0) return 0;
-  int outside = 0;
-  for (const cv::KeyPoint& kp : keypoints) {
-    const int x = std::clamp(cvRound(kp.pt.x), 0, mask.cols - 1), y = std::clamp(cvRound(kp.pt.y), 0, mask.rows - 1);
-    if (mask.at<uint8_t>(y, x) == 0) ++outside;
-  }
-  if (outside >= wanted) return 0;
-  std::vector<cv::KeyPoint> extra;
-  cv::Mat extra_descriptors;
-  extractor_.extractOutside(gray, mask, wanted, extra, extra_descriptors);
-  return feature::appendDistinctKeypoints(keypoints, descriptors, extra, extra_descriptors, *pyramid_);
-}
-
 void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv::Mat& depth,
                               const std::string& image_name, double depth_time_offset) {
   rethrowWorkerFailure();
@@ -225,7 +209,18 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   const cv::Mat dynamic_mask = maskFor(frame_id, shared_bgr, image_name, keypoints, stats);
   if (!dynamic_mask.empty()) {
     const auto topup_start = std::chrono::steady_clock::now();
-    stats.features_added_outside_mask = topUpOutsideMask(gray, dynamic_mask, keypoints, descriptors);
+    // While tracking, dynamic.min_features_outside_mask features of any kind keep the track. Lost
+    // (or not started), the frame may have to start a map, which takes atlas.min_initial_features
+    // with depth: a target met by depthless ones would leave a crowded view unable to start one.
+    // (Only then: more features in a crowd are also more on the people the mask misses.)
+    const bool may_start_map = options_.atlas.enabled && tracker_.state() != tracking::TrackingState::kOk;
+    const int wanted = options_.dynamic.min_features_outside_mask <= 0 ? 0
+                       : may_start_map ? std::max(options_.dynamic.min_features_outside_mask,
+                                                  options_.atlas.min_initial_features)
+                                       : options_.dynamic.min_features_outside_mask;
+    stats.features_added_outside_mask =
+        feature::topUpOutside(extractor_, gray, dynamic_mask, may_start_map ? depth : cv::Mat(),
+                              options_.tracking.min_depth, options_.tracking.max_depth, wanted, keypoints, descriptors);
     stats.extraction_ms += millisecondsSince(topup_start);
   }
   auto features = map::buildFeatureSet(std::move(keypoints), std::move(descriptors), camera_, depth, pyramid_,

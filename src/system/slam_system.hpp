@@ -153,10 +153,6 @@ class SlamSystem {
   // bgr: the frame's image as handed to the semantic thread (for an own-mask request).
   cv::Mat maskFor(uint64_t frame_id, const std::shared_ptr<const cv::Mat>& bgr, const std::string& image_name,
                   const std::vector<cv::KeyPoint>& keypoints, FrameStats& stats);
-  // Extracts more features outside `mask` when fewer than dynamic.min_features_outside_mask lie
-  // there, appending them; returns how many were added.
-  int topUpOutsideMask(const cv::Mat& gray, const cv::Mat& mask, std::vector<cv::KeyPoint>& keypoints,
-                       cv::Mat& descriptors) const;
   // Local mapping's thread (or the caller when deterministic), before local mapping processes kf:
   // when the keyframe's own mask was requested, waits for it, and the features in it (dilated as
   // at the keyframe's creation) become dynamic; their points lose this observation.

@@ -418,6 +418,59 @@ TEST(AppendDistinctKeypoints, ExtraFromExtractOutsideAddsOnlyNewCorners) {
   }
 }
 
+// Keypoints outside `exclude` with a depth in [min, max] in depth_m.
+int outsideWithDepth(const std::vector<cv::KeyPoint>& keypoints, const cv::Mat& exclude, const cv::Mat& depth_m,
+                     float min_m, float max_m) {
+  int n = 0;
+  for (const cv::KeyPoint& kp : keypoints) {
+    const int x = std::clamp(cvRound(kp.pt.x), 0, exclude.cols - 1), y = std::clamp(cvRound(kp.pt.y), 0, exclude.rows - 1);
+    const float d = depth_m.at<float>(y, x);
+    n += exclude.at<uint8_t>(y, x) == 0 && d >= min_m && d <= max_m ? 1 : 0;
+  }
+  return n;
+}
+
+TEST(TopUpOutside, CountsOnlyKeypointsWithDepthTowardsTheTarget) {
+  // A person over the left 60 % of the view and no depth reading on the lower half of the rest
+  // (a window, a dark floor): asking the extractor for the target alone leaves too few with
+  // depth, which is what a new map needs.
+  const cv::Mat image = syntheticTexturedImage();
+  const OrbExtractor extractor(OrbOptions{});
+  cv::Mat exclude(image.size(), CV_8UC1, cv::Scalar(0));
+  exclude(cv::Rect(0, 0, 384, 480)).setTo(255);
+  cv::Mat depth(image.size(), CV_32FC1, cv::Scalar(0.0f));
+  depth(cv::Rect(0, 0, 640, 240)).setTo(2.0f);
+  constexpr int kWanted = 400;
+
+  std::vector<cv::KeyPoint> plain;
+  cv::Mat plain_descriptors;
+  extractor.extractOutside(image, exclude, kWanted, plain, plain_descriptors);
+  ASSERT_LT(outsideWithDepth(plain, exclude, depth, 0.1f, 4.0f), kWanted)
+      << "the test needs a view where the plain top-up falls short";
+
+  std::vector<cv::KeyPoint> keypoints;
+  cv::Mat descriptors;
+  extractor.extract(image, keypoints, descriptors);
+  const size_t before = keypoints.size();
+  const int appended = topUpOutside(extractor, image, exclude, depth, 0.1, 4.0, kWanted, keypoints, descriptors);
+  EXPECT_EQ(static_cast<size_t>(appended), keypoints.size() - before);
+  EXPECT_EQ(descriptors.rows, static_cast<int>(keypoints.size()));
+  EXPECT_GE(outsideWithDepth(keypoints, exclude, depth, 0.1f, 4.0f), kWanted);
+  for (size_t i = before; i < keypoints.size(); ++i) {
+    const cv::Point p(cvRound(keypoints[i].pt.x), cvRound(keypoints[i].pt.y));
+    EXPECT_EQ(exclude.at<uint8_t>(std::min(p.y, 479), std::min(p.x, 639)), 0) << "appended keypoint " << i << " in the mask";
+  }
+
+  // Enough already: nothing appended.
+  const size_t now = keypoints.size();
+  EXPECT_EQ(topUpOutside(extractor, image, exclude, depth, 0.1, 4.0, 50, keypoints, descriptors), 0);
+  EXPECT_EQ(keypoints.size(), now);
+  // A depth image of another size is an input error, not a silent miscount.
+  EXPECT_THROW(topUpOutside(extractor, image, exclude, cv::Mat(10, 10, CV_32FC1, cv::Scalar(1.0f)), 0.1, 4.0,
+                            kWanted, keypoints, descriptors),
+               InputError);
+}
+
 TEST(OrbExtractor, RejectsBadInputAndOptions) {
   OrbOptions bad;
   bad.num_levels = 0;
