@@ -41,6 +41,7 @@
 #include "core/exit_codes.hpp"
 #include "eval/evaluation.hpp"
 #include "io/config.hpp"
+#include "io/timing_summary.hpp"
 #include "io/trajectory_io.hpp"
 #include "plausibility/sequence_check.hpp"
 #include "report/run_plots.hpp"
@@ -448,7 +449,7 @@ int runSequence(const RunArgs& args) {
   report["frames_per_second"] = slam.framesProcessed() / std::max(wall_s, 1e-9);
   report["input_warnings"] = sequence.warnings();
   report["plausibility"] = plausibility_report;
-  if (args.realtime) report["realtime_lag_ms"] = system::summarizeMilliseconds(lag_ms);
+  if (args.realtime) report["realtime_lag_ms"] = io::summarizeMilliseconds(lag_ms);
   notice("export", next_frame);
   holdIfAsked("export");
   notice("export", next_frame);
