@@ -184,12 +184,11 @@ class Slam {
   void writeKeyframeTrajectory(const std::filesystem::path& file) const;
 
   // After finish(): writes the dense map (dense_map.ply, .pcd, dense_map_sources.bin, octomap.bt,
-  // dense_map.png) into
-  // `directory` (created if needed). Returns what was written as JSON text; a map without
-  // keyframes writes nothing ("exported": false and a "note" say so). Once *abort is true
-  // (checked between files, e.g. a signal handler's flag), the files still to come are skipped:
-  // all of them when it is true from the start ("exported": false, "note"), otherwise the
-  // OctoMap and the PNG that follow the point cloud ("skipped" lists them).
+  // dense_map.png) into `directory` (created if needed). Returns what was written as JSON text; a
+  // map without keyframes writes nothing ("exported": false and a "note" say so). Once *abort is
+  // true (checked between files, e.g. a signal handler's flag), the files still to come are
+  // skipped: all of them when it is true from the start ("exported": false, "note"), otherwise
+  // the OctoMap and the PNG that follow the point cloud ("skipped" lists them).
   std::string exportDenseMap(const std::filesystem::path& directory, bool semantic_colour = false,
                              const std::atomic<bool>* abort = nullptr) const;
   // Counts, timings and per-frame statistics as JSON text (report.json's "statistics").
