@@ -1,4 +1,5 @@
-// `desslam run <sequence-dir | file.bag> --config <yaml> --out <dir>`: runs the SLAM system over a
+// `desslam run <sequence-dir | file.bag> --config <yaml> --out <dir>`: runs the SLAM system, through
+// the public API (desslam::Slam, include/desslam/desslam.hpp) as a library user would, over a
 // TUM-layout sequence or a ROS 1 bag (bag/open_sequence.hpp) and writes CameraTrajectory.txt,
 // CameraTrajectory_all.txt, KeyFrameTrajectory.txt, report.json and the dense map. Every file is
 // written atomically (core/atomic_file.hpp); the trajectory is also saved every few hundred frames.
@@ -34,17 +35,18 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "api/pose_conversion.hpp"
 #include "bag/open_sequence.hpp"
 #include "commands.hpp"
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
 #include "core/exit_codes.hpp"
+#include "desslam/desslam.hpp"
 #include "eval/evaluation.hpp"
 #include "io/config.hpp"
-#include "io/trajectory_io.hpp"
+#include "io/timing_summary.hpp"
 #include "plausibility/sequence_check.hpp"
 #include "report/run_plots.hpp"
-#include "system/slam_system.hpp"
 
 namespace desslam::app {
 namespace {
@@ -273,19 +275,19 @@ void writeJson(const std::filesystem::path& path, const nlohmann::json& j) {
   writeFileAtomically(path, j.dump(2) + "\n", "report");
 }
 
-// Why a run tracked no frame, from the per-frame keypoint counts.
-std::string nothingTrackedMessage(const system::SlamSystem& slam, const SystemOptions& options, size_t frame_count) {
-  const std::vector<system::FrameStats>& frames = slam.frameStats();
-  if (frames.empty()) return "nothing was tracked: no frame was processed (of " + std::to_string(frame_count) + ")";
+// Why a run tracked no frame, from the per-frame keypoint counts (statistics' "per_frame").
+std::string nothingTrackedMessage(const nlohmann::json& per_frame, const SystemOptions& options, size_t frame_count) {
+  if (per_frame.empty()) return "nothing was tracked: no frame was processed (of " + std::to_string(frame_count) + ")";
   const int needed = options.atlas.min_initial_features;
   size_t enough = 0;
   int best = 0;
-  for (const system::FrameStats& f : frames) {
-    enough += f.features_with_depth >= needed ? 1 : 0;
-    best = std::max(best, f.features_with_depth);
+  for (const nlohmann::json& f : per_frame) {
+    const int with_depth = f["features_with_depth"].get<int>();
+    enough += with_depth >= needed ? 1 : 0;
+    best = std::max(best, with_depth);
   }
   std::ostringstream msg;
-  msg << "nothing was tracked: " << enough << " of " << frames.size() << " frames had " << needed
+  msg << "nothing was tracked: " << enough << " of " << per_frame.size() << " frames had " << needed
       << " or more keypoints with valid depth (atlas.min_initial_features, needed to start a map; the best frame had "
       << best << ")";
   if (enough == 0)
@@ -357,13 +359,13 @@ int runSequence(const RunArgs& args) {
   }
   std::vector<size_t> input_index;  // per frame given to the system: its index in the sequence
 
-  system::RunSettings settings;
-  settings.deterministic = args.deterministic;
-  settings.realtime = args.realtime;
-  settings.debug_images_dir = args.debug_images;
-  settings.mask_latency_frames = args.mask_latency;
-  settings.mask_period_frames = args.mask_period;
-  system::SlamSystem slam(options, settings);
+  RunMode mode;
+  mode.deterministic = args.deterministic;
+  mode.realtime = args.realtime;
+  mode.debug_images_dir = args.debug_images;
+  mode.mask_latency_frames = args.mask_latency;
+  mode.mask_period_frames = args.mask_period;
+  Slam slam(Config::fromOptions(options), mode);
   std::vector<double> lag_ms;  // real-time: how late each frame started relative to its sensor time
 
   Interruption interruption;
@@ -389,18 +391,18 @@ int runSequence(const RunArgs& args) {
         lag_ms.push_back(std::max(0.0, now_s - due_s) * 1000.0);
       }
       input_index.push_back(i);
-      slam.processFrame(image.timestamp, image.bgr, image.depth, sequence.frameName(i),
-                        sequence.depthTimestamp(i) - sequence.rgbTimestamp(i));
+      const TrackResult tracked = slam.track(image.timestamp, image.bgr, image.depth,
+                                             sequence.depthTimestamp(i) - sequence.rgbTimestamp(i), sequence.frameName(i));
       next_frame = i + 1;
 
       if ((i + 1) % kCheckpointEvery == 0)
-        io::writeTumTrajectory(out_dir / "CameraTrajectory.txt", slam.cameraTrajectory());
+        slam.writeTrajectory(out_dir / "CameraTrajectory.txt");
       const auto now = std::chrono::steady_clock::now();
       if (!args.quiet && (now - last_progress > std::chrono::milliseconds(500) || i + 1 == frame_count)) {
         last_progress = now;
         const double seconds = std::chrono::duration<double>(now - start).count();
         std::fprintf(stderr, "\r[%zu/%zu] %.1f frames/s  %s   ", i + 1, frame_count, (i + 1) / seconds,
-                     slam.lastFrameTracked() ? "tracking" : "LOST    ");
+                     tracked.state == TrackingState::kTracking ? "tracking" : "LOST    ");
         std::fflush(stderr);
       }
       holdIfAsked("frame:" + std::to_string(i));
@@ -412,22 +414,22 @@ int runSequence(const RunArgs& args) {
 
   // Finish: mapping drains; the final BA only when not interrupted; a second signal aborts a
   // running global BA.
-  system::FinishControl control;
-  control.abort = &g_skip_optional;
-  control.on_stage = [&](const std::string& stage) {
+  FinishOptions finish;
+  finish.abort = &g_skip_optional;
+  finish.on_stage = [&](const std::string& stage) {
     notice(stage, next_frame);
     holdIfAsked(stage);
     notice(stage, next_frame);
     return !(stage == "final_ba" && interruption.interrupted());
   };
-  attempt(error, [&] { slam.finish(control); });
+  attempt(error, [&] { slam.finish(finish); });
 
   // Outputs: each attempted even when an earlier one failed (a trajectory may still fit).
-  const Trajectory trajectory = slam.cameraTrajectory();
-  const AtlasTrajectory all_maps = slam.cameraTrajectoryAll();
-  attempt(error, [&] { io::writeTumTrajectory(out_dir / "CameraTrajectory.txt", trajectory); });
-  attempt(error, [&] { io::writeAtlasTrajectory(out_dir / "CameraTrajectory_all.txt", all_maps); });
-  attempt(error, [&] { io::writeTumTrajectory(out_dir / "KeyFrameTrajectory.txt", slam.keyframeTrajectory()); });
+  attempt(error, [&] { slam.writeTrajectory(out_dir / "CameraTrajectory.txt"); });
+  attempt(error, [&] { slam.writeTrajectoryAll(out_dir / "CameraTrajectory_all.txt"); });
+  attempt(error, [&] { slam.writeKeyframeTrajectory(out_dir / "KeyFrameTrajectory.txt"); });
+  Trajectory trajectory;  // the main map's, for the evaluation and the plots
+  attempt(error, [&] { trajectory = api::toTrajectory(slam.trajectory(), "trajectory"); });
 
   nlohmann::json report;
   report["sequence"] = std::filesystem::absolute(args.sequence).string();
@@ -440,7 +442,7 @@ int runSequence(const RunArgs& args) {
   report["settings"]["emulated_mask_latency"] =
       args.mask_latency > 0 ? nlohmann::json{{"frames", args.mask_latency}, {"period", args.mask_period}}
                             : nlohmann::json(nullptr);
-  report["statistics"] = slam.statistics();
+  report["statistics"] = nlohmann::json::parse(slam.statisticsJson());
   // per_frame lists the frames the system got; with --skip-frames their sequence index differs.
   if (auto& per_frame = report["statistics"]["per_frame"]; per_frame.is_array())
     for (size_t k = 0; k < per_frame.size() && k < input_index.size(); ++k) per_frame[k]["input_index"] = input_index[k];
@@ -448,14 +450,16 @@ int runSequence(const RunArgs& args) {
   report["frames_per_second"] = slam.framesProcessed() / std::max(wall_s, 1e-9);
   report["input_warnings"] = sequence.warnings();
   report["plausibility"] = plausibility_report;
-  if (args.realtime) report["realtime_lag_ms"] = system::summarizeMilliseconds(lag_ms);
+  if (args.realtime) report["realtime_lag_ms"] = io::summarizeMilliseconds(lag_ms);
   notice("export", next_frame);
   holdIfAsked("export");
   notice("export", next_frame);
   if (error.code == exit_code::kOutputError) {
     report["dense"] = {{"exported", false}, {"note", "skipped: an earlier output could not be written"}};
   } else {
-    attempt(error, [&] { report["dense"] = slam.exportDenseMap(out_dir, args.map_color == "semantic", &g_skip_optional); });
+    attempt(error, [&] {
+      report["dense"] = nlohmann::json::parse(slam.exportDenseMap(out_dir, args.map_color == "semantic", &g_skip_optional));
+    });
   }
   if (report["dense"].contains("note")) std::fprintf(stderr, "note: dense map: %s\n", report["dense"]["note"].get<std::string>().c_str());
   if (sequence.groundTruth() && trajectory.size() >= 3) {
@@ -471,8 +475,7 @@ int runSequence(const RunArgs& args) {
       // Main map (what the ATE is over) and any map of the atlas.
       report["tracked_share_of_associated_frames"] =
           associated > 0 ? static_cast<double>(ate.matched) / associated : 0.0;
-      Trajectory any_map;
-      for (const AtlasPose& p : all_maps) any_map.push_back({p.timestamp, p.T_w_c});
+      const Trajectory any_map = api::toTrajectory(slam.trajectoryAll(), "trajectory of every map");
       report["tracked_share_any_map"] =
           associated > 0 ? static_cast<double>(eval::associate(*sequence.groundTruth(), any_map).size()) / associated
                          : 0.0;
@@ -499,7 +502,8 @@ int runSequence(const RunArgs& args) {
                               {"final_global_ba", slam.finalBundleAdjustmentDone() ? "done" : "skipped"},
                               {"optional_stages_skipped", g_skip_optional.load()}};
   if (error) report["error"] = error.message;
-  if (nothing_tracked) report["nothing_tracked"] = nothingTrackedMessage(slam, options, frame_count);
+  if (nothing_tracked)
+    report["nothing_tracked"] = nothingTrackedMessage(report["statistics"]["per_frame"], options, frame_count);
   const int code = error                          ? error.code
                    : interruption.interrupted()   ? exit_code::interrupted(interruption.signal)
                    : nothing_tracked              ? exit_code::kNothingTracked

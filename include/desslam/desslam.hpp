@@ -18,8 +18,10 @@
 // and stops them in finish() or its destructor).
 #pragma once
 
+#include <atomic>
 #include <cstddef>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -71,6 +73,9 @@ class Config {
 
   // The internal options (for the project's own programs; not part of the stable API).
   const SystemOptions& options() const;
+  // A Config holding `options` (for the project's own programs, which assemble the options
+  // themselves, e.g. with a bag's camera intrinsics; not part of the stable API).
+  static Config fromOptions(const SystemOptions& options);
 
  private:
   explicit Config(std::unique_ptr<SystemOptions> options);
@@ -83,6 +88,29 @@ struct RunMode {
   // Frames come at the sensor's rate and tracking never waits for the network (a late mask is
   // carried forward along optical flow). Excludes `deterministic`.
   bool realtime = false;
+  // Not empty: each frame is also written there (created if needed) as track()'s image_name, with
+  // its mask overlaid and its features coloured static / stage-1 / stage-2 / in the mask.
+  // (Every member has an initializer: a designated initializer that leaves some out, such as
+  // {.deterministic = true}, then draws no -Wmissing-field-initializers.)
+  std::filesystem::path debug_images_dir{};
+  // Real time's late masks, offline (0 = off; excludes `realtime`): frame k uses the mask of the
+  // newest frame s <= k - mask_latency_frames with s a multiple of mask_period_frames, carried
+  // forward along optical flow. With `deterministic` they are reproducible, unlike real time's,
+  // which depend on the CPU's load. Throws from Slam() for a latency < 0 or a period < 1.
+  int mask_latency_frames = 0;
+  int mask_period_frames = 1;
+};
+
+// How finish() ends a run that is being cut short, e.g. by a signal (both optional).
+struct FinishOptions {
+  // Called on finish()'s thread before each of its stages, by name: "mapping" (local mapping and
+  // loop closing drain their queues), "final_ba" (the final global bundle adjustment; only when
+  // mapping.final_global_ba is on and no worker thread failed) and "dense" (the dense thread
+  // drains its queue). Returning false at "final_ba" skips it; the other stages always run.
+  std::function<bool(const std::string& stage)> on_stage{};
+  // Once *abort is true (from any thread, e.g. a signal handler's flag), a running global bundle
+  // adjustment (a loop closure's or the final one) stops and the final one is not started.
+  const std::atomic<bool>* abort = nullptr;
 };
 
 enum class TrackingState {
@@ -135,6 +163,10 @@ class Slam {
   // Waits for mapping, runs the final global bundle adjustment (mapping.final_global_ba) and
   // stops the threads. Idempotent. The trajectories below follow the final keyframe poses.
   void finish();
+  void finish(const FinishOptions& options);
+  // Whether finish() ran the final global bundle adjustment to its end (false: off, skipped,
+  // aborted, or finish() not called yet).
+  bool finalBundleAdjustmentDone() const;
 
   // The frames of the main map (the map that, after all merges, holds the most frames).
   std::vector<FramePose> trajectory() const;
@@ -142,10 +174,23 @@ class Slam {
   std::vector<FramePose> trajectoryAll() const;
   // Every keyframe of the atlas (map_id: its map).
   std::vector<FramePose> keyframeTrajectory() const;
+  // The same three as TUM files, as `desslam run` writes them (CameraTrajectory.txt,
+  // CameraTrajectory_all.txt with map_id and world_map_id after each pose, KeyFrameTrajectory.txt),
+  // written atomically. They hold the run's own rotations: writeTumTrajectory(slam.trajectory())
+  // recomputes each quaternion from the 4x4 matrix (the same rotation, possibly of the other sign).
+  // Throw naming the file when it cannot be written.
+  void writeTrajectory(const std::filesystem::path& file) const;
+  void writeTrajectoryAll(const std::filesystem::path& file) const;
+  void writeKeyframeTrajectory(const std::filesystem::path& file) const;
 
-  // After finish(): writes the dense map (dense_map.ply, .pcd, octomap.bt, dense_map.png) into
-  // `directory` (created if needed). Returns what was written as JSON text.
-  std::string exportDenseMap(const std::filesystem::path& directory, bool semantic_colour = false) const;
+  // After finish(): writes the dense map (dense_map.ply, .pcd, dense_map_sources.bin, octomap.bt,
+  // dense_map.png) into `directory` (created if needed). Returns what was written as JSON text; a
+  // map without keyframes writes nothing ("exported": false and a "note" say so). Once *abort is
+  // true (checked between files, e.g. a signal handler's flag), the files still to come are
+  // skipped: all of them when it is true from the start ("exported": false, "note"), otherwise
+  // the OctoMap and the PNG that follow the point cloud ("skipped" lists them).
+  std::string exportDenseMap(const std::filesystem::path& directory, bool semantic_colour = false,
+                             const std::atomic<bool>* abort = nullptr) const;
   // Counts, timings and per-frame statistics as JSON text (report.json's "statistics").
   std::string statisticsJson() const;
 

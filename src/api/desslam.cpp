@@ -9,6 +9,7 @@
 #include "core/data_location.hpp"
 #include "core/error.hpp"
 #include "io/config.hpp"
+#include "io/trajectory_io.hpp"
 #include "place/vocabulary_location.hpp"
 #include "system/slam_system.hpp"
 #include "system/system_options.hpp"
@@ -94,6 +95,8 @@ std::string Config::toJson() const {
 
 const SystemOptions& Config::options() const { return *options_; }
 
+Config Config::fromOptions(const SystemOptions& options) { return Config(std::make_unique<SystemOptions>(options)); }
+
 // ---- Slam ----
 
 namespace {
@@ -113,6 +116,9 @@ system::RunSettings toSettings(const RunMode& mode) {
   system::RunSettings settings;
   settings.deterministic = mode.deterministic;
   settings.realtime = mode.realtime;
+  settings.debug_images_dir = mode.debug_images_dir;
+  settings.mask_latency_frames = mode.mask_latency_frames;
+  settings.mask_period_frames = mode.mask_period_frames;
   return settings;
 }
 
@@ -186,6 +192,10 @@ TrackResult Slam::track(double timestamp_s, const cv::Mat& bgr, const cv::Mat& d
 
 void Slam::finish() { impl_->system.finish(); }
 
+void Slam::finish(const FinishOptions& options) { impl_->system.finish({options.abort, options.on_stage}); }
+
+bool Slam::finalBundleAdjustmentDone() const { return impl_->system.finalBundleAdjustmentDone(); }
+
 std::vector<FramePose> Slam::trajectory() const {
   std::vector<FramePose> out;
   for (const FramePose& p : toFramePoses(impl_->system.cameraTrajectoryAll()))
@@ -199,9 +209,22 @@ std::vector<FramePose> Slam::keyframeTrajectory() const {
   return toFramePoses(impl_->system.keyframeTrajectoryAll());
 }
 
-std::string Slam::exportDenseMap(const std::filesystem::path& directory, bool semantic_colour) const {
+void Slam::writeTrajectory(const std::filesystem::path& file) const {
+  io::writeTumTrajectory(file, impl_->system.cameraTrajectory());
+}
+
+void Slam::writeTrajectoryAll(const std::filesystem::path& file) const {
+  io::writeAtlasTrajectory(file, impl_->system.cameraTrajectoryAll());
+}
+
+void Slam::writeKeyframeTrajectory(const std::filesystem::path& file) const {
+  io::writeTumTrajectory(file, impl_->system.keyframeTrajectory());
+}
+
+std::string Slam::exportDenseMap(const std::filesystem::path& directory, bool semantic_colour,
+                                 const std::atomic<bool>* abort) const {
   std::filesystem::create_directories(directory);
-  return impl_->system.exportDenseMap(directory, semantic_colour).dump(2);
+  return impl_->system.exportDenseMap(directory, semantic_colour, abort).dump(2);
 }
 
 std::string Slam::statisticsJson() const { return impl_->system.statistics().dump(2); }

@@ -16,6 +16,7 @@
 #include "dense/map_export.hpp"
 #include "dense/memory_usage.hpp"
 #include "dynamic/mask_utils.hpp"
+#include "io/timing_summary.hpp"
 #include "place/vocabulary_location.hpp"
 #include "optim/map_bundle_adjustment.hpp"
 #include "semantic/semantic_thread.hpp"
@@ -24,22 +25,13 @@
 
 namespace desslam::system {
 
+using io::summarizeMilliseconds;
+
 namespace {
 double millisecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
-}  // namespace
 
-nlohmann::json summarizeMilliseconds(std::vector<double> values) {
-  if (values.empty()) return {{"median", 0.0}, {"p95", 0.0}, {"mean", 0.0}, {"count", 0}};
-  std::sort(values.begin(), values.end());
-  auto quantile = [&](double q) { return values[static_cast<size_t>(q * (values.size() - 1) + 0.5)]; };
-  double sum = 0;
-  for (double v : values) sum += v;
-  return {{"median", quantile(0.5)}, {"p95", quantile(0.95)}, {"mean", sum / values.size()}, {"count", values.size()}};
-}
-
-namespace {
 constexpr int kDynamicFeatureRadius = 12;   // pixels left out of the dense map around a dynamic feature
 
 std::unique_ptr<place::KeyframeDatabase> makeKeyframeDatabase(const SystemOptions& options) {

@@ -227,7 +227,4 @@ class SlamSystem {
   optim::GlobalBaResult final_ba_;  // the bundle adjustment finish() runs (empty when off)
 };
 
-// Median and 95th percentile of a series (0 when empty).
-nlohmann::json summarizeMilliseconds(std::vector<double> values);
-
 }  // namespace desslam::system
