@@ -35,8 +35,12 @@ internal=$(find "$prefix/include" -type f ! -path "$prefix/include/desslam/*")
 [ -z "$internal" ] || fail "internal headers installed: $internal"
 echo "installed: $(du -sh "$prefix" | cut -f1) in $prefix"
 
+# DESSLAM_CONSUMER_SANITIZE: the sanitizer flags of a sanitizer build (tests/consumer/CMakeLists.txt).
+sanitize=()
+[ -z "${DESSLAM_CONSUMER_SANITIZE:-}" ] || sanitize=(-DCMAKE_CXX_FLAGS="$DESSLAM_CONSUMER_SANITIZE"
+                                                  -DCMAKE_EXE_LINKER_FLAGS="$DESSLAM_CONSUMER_SANITIZE")
 cmake -S "$source/examples/consumer" -B "$work/build" -G "$generator" -DCMAKE_BUILD_TYPE=Release \
-      -DCMAKE_CXX_COMPILER="$compiler" -DCMAKE_PREFIX_PATH="$prefix" > "$work/configure.log" 2>&1 \
+      -DCMAKE_CXX_COMPILER="$compiler" -DCMAKE_PREFIX_PATH="$prefix" "${sanitize[@]}" > "$work/configure.log" 2>&1 \
   || { cat "$work/configure.log"; fail "configuring examples/consumer against the installed prefix"; }
 cmake --build "$work/build" > "$work/build.log" 2>&1 || { cat "$work/build.log"; fail "building examples/consumer"; }
 # The libraries DeS-SLAM uses inside stay inside: the consumer links libdesslam and OpenCV only.
