@@ -10,6 +10,7 @@
 #include "eval/evaluation.hpp"
 #include "io/tum_dataset.hpp"
 #include "support/expect_contains.hpp"
+#include "api_support.hpp"
 #include "support/temp_dir.hpp"
 #include "system/system_support.hpp"
 
@@ -18,7 +19,7 @@ namespace {
 
 constexpr int kFrames = 60;
 
-Config syntheticConfig() { return Config::fromYamlString(test::syntheticConfigYaml(), "synthetic.yaml"); }
+using test::syntheticConfig;
 
 struct ApiRun {
   std::vector<FramePose> trajectory;
@@ -45,22 +46,10 @@ ApiRun trackThroughApi(const io::TumSequence& sequence, bool raw_depth) {
   return run;
 }
 
-class ApiTest : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() {
-    dir_ = new test::TempDir();
-    test::writeSyntheticSequence(dir_->path(), kFrames);
-  }
-  static void TearDownTestSuite() {
-    delete dir_;
-    dir_ = nullptr;
-  }
-  static test::TempDir* dir_;
-};
-test::TempDir* ApiTest::dir_ = nullptr;
+class ApiTest : public test::SyntheticSequenceTest<kFrames> {};
 
 TEST_F(ApiTest, SameTrajectoryAsThePipelineInDeterministicMode) {
-  const io::TumSequence sequence = io::TumSequence::open(dir_->path());
+  const io::TumSequence sequence = ApiTest::sequence();
   const test::RunResult reference = test::runOver(sequence, syntheticConfig().options());
   const ApiRun api = trackThroughApi(sequence, /*raw_depth=*/false);
 
@@ -75,7 +64,7 @@ TEST_F(ApiTest, SameTrajectoryAsThePipelineInDeterministicMode) {
 }
 
 TEST_F(ApiTest, EveryTrackedFrameGetsItsPoseAtOnce) {
-  const io::TumSequence sequence = io::TumSequence::open(dir_->path());
+  const io::TumSequence sequence = ApiTest::sequence();
   const ApiRun api = trackThroughApi(sequence, /*raw_depth=*/false);
   ASSERT_EQ(api.results.size(), sequence.size());
   EXPECT_TRUE(api.results.front().new_map) << "the first frame of the static room starts the map";
@@ -87,7 +76,9 @@ TEST_F(ApiTest, EveryTrackedFrameGetsItsPoseAtOnce) {
     if (r.state != TrackingState::kTracking) continue;
     ++tracked;
     EXPECT_EQ(r.map_id, 0);
-    if (!r.new_map) EXPECT_GT(r.inliers, 0) << "frame " << i;  // a map's first frame has nothing to match
+    if (!r.new_map) {  // a map's first frame has nothing to match
+      EXPECT_GT(r.inliers, 0) << "frame " << i;
+    }
     live.push_back({sequence.record(i).rgb_timestamp, SE3::fromMatrix(r.T_w_c)});
   }
   EXPECT_GE(tracked, static_cast<size_t>(0.95 * kFrames));
@@ -97,7 +88,7 @@ TEST_F(ApiTest, EveryTrackedFrameGetsItsPoseAtOnce) {
 }
 
 TEST_F(ApiTest, RawSixteenBitDepthIsScaledByTheDepthFactor) {
-  const io::TumSequence sequence = io::TumSequence::open(dir_->path());
+  const io::TumSequence sequence = ApiTest::sequence();
   const ApiRun metres = trackThroughApi(sequence, /*raw_depth=*/false);
   const ApiRun raw = trackThroughApi(sequence, /*raw_depth=*/true);
   ASSERT_EQ(raw.trajectory.size(), metres.trajectory.size());

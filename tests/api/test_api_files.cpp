@@ -7,6 +7,7 @@
 #include "eval/evaluation.hpp"
 #include "io/trajectory_io.hpp"
 #include "io/tum_dataset.hpp"
+#include "api_support.hpp"
 #include "support/expect_contains.hpp"
 #include "support/temp_dir.hpp"
 #include "system/system_support.hpp"
@@ -19,7 +20,7 @@ constexpr int kFrames = 20;
 TEST(ApiFiles, DatasetLoadsWhatTheInternalReaderLoads) {
   test::TempDir dir;
   test::writeSyntheticSequence(dir.path(), kFrames);
-  const Config config = Config::fromYamlString(test::syntheticConfigYaml(), "synthetic.yaml");
+  const Config config = test::syntheticConfig();
   const TumDataset dataset = TumDataset::open(dir.path());
   const io::TumSequence sequence = io::TumSequence::open(dir.path());
   ASSERT_EQ(dataset.size(), sequence.size());

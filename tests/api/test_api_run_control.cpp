@@ -17,6 +17,7 @@
 #include "io/tum_dataset.hpp"
 #include "sim/camera_path.hpp"
 #include "sim/synthetic_scene.hpp"
+#include "api_support.hpp"
 #include "support/temp_dir.hpp"
 #include "system/system_support.hpp"
 
@@ -25,7 +26,7 @@ namespace {
 
 constexpr int kFrames = 30;
 
-Config syntheticConfig() { return Config::fromYamlString(test::syntheticConfigYaml(), "synthetic.yaml"); }
+using test::syntheticConfig;
 
 void trackAll(Slam& slam, const io::TumSequence& sequence) {
   for (size_t i = 0; i < sequence.size(); ++i) {
@@ -34,20 +35,7 @@ void trackAll(Slam& slam, const io::TumSequence& sequence) {
   }
 }
 
-class ApiRunControlTest : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() {
-    dir_ = new test::TempDir();
-    test::writeSyntheticSequence(dir_->path(), kFrames);
-  }
-  static void TearDownTestSuite() {
-    delete dir_;
-    dir_ = nullptr;
-  }
-  static io::TumSequence sequence() { return io::TumSequence::open(dir_->path()); }
-  static test::TempDir* dir_;
-};
-test::TempDir* ApiRunControlTest::dir_ = nullptr;
+class ApiRunControlTest : public test::SyntheticSequenceTest<kFrames> {};
 
 // The stages finish() announced, with on_stage answering `run_final_ba` at "final_ba".
 struct Finished {
