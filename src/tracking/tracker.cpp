@@ -7,6 +7,8 @@
 #include <mutex>
 #include <shared_mutex>
 
+#include <spdlog/spdlog.h>
+
 #include "dynamic/depth_checks.hpp"
 #include "dynamic/mask_utils.hpp"
 #include "tracking/frame_pose.hpp"
@@ -275,6 +277,11 @@ void Tracker::resetForNewMap() {
 }
 
 bool Tracker::canStartMap(const map::Frame& frame, const PinholeCamera& camera, const AtlasOptions& options) {
+  const MapStartSupport support = mapStartSupport(frame, camera);
+  return support.features_with_depth >= options.min_initial_features && support.cells >= options.min_initial_cells;
+}
+
+Tracker::MapStartSupport Tracker::mapStartSupport(const map::Frame& frame, const PinholeCamera& camera) {
   constexpr int kGrid = 4;
   constexpr int kMinPerCell = 5;  // a cell with fewer is not counted as covered
   int with_depth = 0;
@@ -288,7 +295,7 @@ bool Tracker::canStartMap(const map::Frame& frame, const PinholeCamera& camera, 
     ++per_cell[cy * kGrid + cx];
   }
   const int cells = static_cast<int>(std::count_if(per_cell.begin(), per_cell.end(), [](int n) { return n >= kMinPerCell; }));
-  return with_depth >= options.min_initial_features && cells >= options.min_initial_cells;
+  return {with_depth, cells};
 }
 
 bool Tracker::initialize(map::Frame& frame, TrackOutcome& outcome, const char* reason) {
@@ -297,6 +304,11 @@ bool Tracker::initialize(map::Frame& frame, TrackOutcome& outcome, const char* r
   if (!canStartMap(frame, camera_, options_.atlas)) {
     // Waiting for a better frame; the caller counts a lost frame when a map had started.
     ++initialisations_refused_;
+    const MapStartSupport support = mapStartSupport(frame, camera_);
+    spdlog::debug("tracking: frame {} cannot start a map ({}): {} static depth-backed features over {} cells "
+                  "(atlas.min_initial_features {}, min_initial_cells {})", frame.id, reason,
+                  support.features_with_depth, support.cells, options_.atlas.min_initial_features,
+                  options_.atlas.min_initial_cells);
     if (state_ == TrackingState::kNotInitialized) records_.push_back({frame.id, frame.timestamp, nullptr, SE3(), -1});
     return false;
   }

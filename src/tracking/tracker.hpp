@@ -77,6 +77,11 @@ class Tracker {
   // Whether `frame` could start a map: atlas.min_initial_features static depth-backed features
   // over at least atlas.min_initial_cells cells of a 4 x 4 grid.
   static bool canStartMap(const map::Frame& frame, const PinholeCamera& camera, const AtlasOptions& options);
+  struct MapStartSupport {
+    int features_with_depth = 0;  // usable (static) features with depth
+    int cells = 0;                // cells of the 4 x 4 grid holding at least 5 of them
+  };
+  static MapStartSupport mapStartSupport(const map::Frame& frame, const PinholeCamera& camera);
 
  private:
   // Starts a map of the atlas at `frame` (reason for the map's record) when it is strong enough.
