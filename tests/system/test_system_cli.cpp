@@ -524,6 +524,24 @@ TEST_F(DesslamCli, UnknownSubCommandListsTheSubCommands) {
   EXPECT_CONTAINS(nested.err, "train, check");
 }
 
+TEST_F(DesslamCli, MissingSubCommandListsTheSubCommands) {
+  for (const char* arguments : {"", "--log-level warning"}) {
+    SCOPED_TRACE(std::string("desslam ") + arguments);
+    const CommandResult r = desslam(arguments);
+    EXPECT_EQ(r.exit_code, 2);
+    EXPECT_FALSE(r.signaled);
+    EXPECT_CONTAINS(r.err, "desslam needs a sub-command: type one of run, eval, vocab, mapcheck, report");
+    EXPECT_CONTAINS(r.err, "desslam run --help");
+  }
+  const CommandResult nested = desslam("vocab");
+  EXPECT_EQ(nested.exit_code, 2);
+  EXPECT_CONTAINS(nested.err, "desslam vocab needs a sub-command: type one of train, check");
+  // A missing option of a command without sub-commands is still CLI11's own message.
+  const CommandResult option = desslam("eval");
+  EXPECT_EQ(option.exit_code, 2);
+  EXPECT_CONTAINS(option.err, "groundtruth is required");
+}
+
 TEST_F(DesslamCli, TimestampTiesAndBadGroundTruthAreWarnings) {
   writeSequence(8);
   writeConfig();
