@@ -1,10 +1,12 @@
 // The desslam program as users run it: outputs of `desslam run`, identical results of two
 // --deterministic runs, and clear failures (non-zero exit, the file or key named on stderr) on
 // bad input.
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -359,6 +361,25 @@ TEST_F(DesslamCli, EvalWithMissingFileIsNamed) {
                                   shellQuote((dir_ / "no_such_estimate.txt").string()));
   expectCleanFailure(r);
   EXPECT_CONTAINS(r.err, "no_such_estimate.txt");
+}
+
+TEST_F(DesslamCli, EvalOfTooFewPosesSaysHowManyTheEstimateHas) {
+  writeSequence(4);
+  const fs::path gt = sequence() / "groundtruth.txt";
+  std::string two_poses;  // the ground truth's first two poses: both associate
+  std::istringstream lines(test::readText(gt));
+  for (std::string line; std::getline(lines, line) && std::count(two_poses.begin(), two_poses.end(), '\n') < 2;)
+    if (!line.empty() && line[0] != '#') two_poses += line + "\n";
+  for (const auto& [name, text, count] : std::vector<std::tuple<std::string, std::string, std::string>>{
+           {"empty.txt", "", "0 poses"}, {"two.txt", two_poses, "2 poses"}}) {
+    SCOPED_TRACE(name);
+    dir_.write(name, text);
+    const CommandResult r = desslam("eval " + shellQuote(gt.string()) + " " + shellQuote((dir_ / name).string()));
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_CONTAINS(r.err, name + " against ");
+    EXPECT_CONTAINS(r.err, "the estimate has " + count + ", too few: ATE needs at least 3");
+    EXPECT_EQ(r.err.find("same sequence"), std::string::npos) << r.err;
+  }
 }
 
 TEST_F(DesslamCli, MissingArgumentsPrintUsage) {
