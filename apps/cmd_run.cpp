@@ -462,7 +462,10 @@ int runSequence(const RunArgs& args) {
     });
   }
   if (report["dense"].contains("note")) std::fprintf(stderr, "note: dense map: %s\n", report["dense"]["note"].get<std::string>().c_str());
-  if (sequence.groundTruth() && trajectory.size() >= 3) {
+  if (sequence.groundTruth() && trajectory.size() < 3) {
+    report["evaluation_error"] = "the main map's trajectory has " + std::to_string(trajectory.size()) +
+                                 (trajectory.size() == 1 ? " pose" : " poses") + ", too few: ATE needs at least 3";
+  } else if (sequence.groundTruth()) {
     try {
       const eval::AteResult ate = eval::computeAte(*sequence.groundTruth(), trajectory);
       const eval::RpeResult rpe = eval::computeRpe(*sequence.groundTruth(), trajectory);
@@ -484,6 +487,9 @@ int runSequence(const RunArgs& args) {
       report["evaluation_error"] = e.what();
     }
   }
+  // Where the ATE table would be, why there is none (a run without a pose says why itself).
+  if (!args.quiet && report.contains("evaluation_error") && !trajectory.empty())
+    std::cout << "ATE/RPE          n/a: " << report["evaluation_error"].get<std::string>() << "\n";
   notice("report", next_frame);
   holdIfAsked("report");
   notice("report", next_frame);

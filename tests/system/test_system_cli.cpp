@@ -2,6 +2,7 @@
 // --deterministic runs, and clear failures (non-zero exit, the file or key named on stderr) on
 // bad input.
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -162,6 +163,45 @@ TEST_F(DesslamCli, RunWithoutGroundTruthHasNoAte) {
   const auto report = nlohmann::json::parse(test::readText(out() / "report.json"));
   EXPECT_FALSE(report.contains("ate"));
   EXPECT_EQ(report["statistics"]["counts"]["frames"].get<size_t>(), 20u);
+}
+
+// Ground truth that covers no frame, or a trajectory too short for an ATE: the console says why
+// there is no ATE where the table would be (stdout; nothing with -q), report.json the same.
+TEST_F(DesslamCli, RunWithoutAnAteSaysWhyOnTheConsole) {
+  writeSequence(12);
+  writeConfig();
+  const fs::path gt = sequence() / "groundtruth.txt";
+  std::string shifted;  // every ground-truth pose 1000 s after the frames
+  std::istringstream lines(test::readText(gt));
+  for (std::string line; std::getline(lines, line);) {
+    if (line.empty() || line[0] == '#') {
+      shifted += line + "\n";
+      continue;
+    }
+    const size_t space = line.find(' ');
+    char stamp[64];
+    std::snprintf(stamp, sizeof stamp, "%.6f", std::stod(line.substr(0, space)) + 1000.0);
+    shifted += stamp + line.substr(space) + "\n";
+  }
+  dir_.write("sequence/groundtruth.txt", shifted);
+  const CommandResult r = run(sequence(), config(), out(), "--deterministic");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_CONTAINS(r.out, "ATE/RPE          n/a: no timestamps within max_dt: are these the same sequence?");
+  nlohmann::json report = nlohmann::json::parse(test::readText(out() / "report.json"));
+  EXPECT_FALSE(report.contains("ate"));
+  EXPECT_CONTAINS(report["evaluation_error"].get<std::string>(), "no timestamps within max_dt");
+
+  const CommandResult quiet = run(sequence(), config(), out(), "--deterministic --overwrite -q");
+  ASSERT_EQ(quiet.exit_code, 0) << quiet.err;
+  EXPECT_EQ(quiet.out, "");
+
+  // The real ground truth, but 2 frames: too few poses for an ATE.
+  writeSequence(12);
+  const CommandResult two = run(sequence(), config(), out(), "--deterministic --overwrite --max-frames 2");
+  ASSERT_EQ(two.exit_code, 0) << two.err;
+  EXPECT_CONTAINS(two.out, "ATE/RPE          n/a: the main map's trajectory has 2 poses, too few: ATE needs at least 3");
+  report = nlohmann::json::parse(test::readText(out() / "report.json"));
+  EXPECT_CONTAINS(report["evaluation_error"].get<std::string>(), "has 2 poses, too few");
 }
 
 // ---- determinism ---------------------------------------------------------------------------
