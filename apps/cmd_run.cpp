@@ -275,28 +275,53 @@ void writeJson(const std::filesystem::path& path, const nlohmann::json& j) {
   writeFileAtomically(path, j.dump(2) + "\n", "report");
 }
 
-// Why a run tracked no frame, from the per-frame keypoint counts (statistics' "per_frame").
+// Why a run tracked no frame, from the per-frame keypoint counts (statistics' "per_frame"):
+// too few keypoints with depth (camera covered, wrong depth scale), too few of them left once the
+// dynamic features were removed (masks covering the view), or too little spread to start a map.
 std::string nothingTrackedMessage(const nlohmann::json& per_frame, const SystemOptions& options, size_t frame_count) {
   if (per_frame.empty()) return "nothing was tracked: no frame was processed (of " + std::to_string(frame_count) + ")";
   const int needed = options.atlas.min_initial_features;
-  size_t enough = 0;
+  size_t enough = 0, enough_static = 0;
   int best = 0;
+  const nlohmann::json* best_static = &per_frame.front();  // the frame that kept the most
   for (const nlohmann::json& f : per_frame) {
     const int with_depth = f["features_with_depth"].get<int>();
+    const int kept = f["static_with_depth"].get<int>();
     enough += with_depth >= needed ? 1 : 0;
+    enough_static += kept >= needed ? 1 : 0;
     best = std::max(best, with_depth);
+    if (kept > (*best_static)["static_with_depth"].get<int>()) best_static = &f;
   }
   std::ostringstream msg;
   msg << "nothing was tracked: " << enough << " of " << per_frame.size() << " frames had " << needed
       << " or more keypoints with valid depth (atlas.min_initial_features, needed to start a map; the best frame had "
       << best << ")";
-  if (enough == 0)
+  if (enough == 0) {
     msg << ": is the camera covered, is camera.depth_factor right (" << options.camera.depth_factor
         << " depth-image units per metre), does tracking.min_depth/max_depth (" << options.tracking.min_depth << "-"
         << options.tracking.max_depth << " m) cover the scene?";
-  else
+  } else if (enough_static == 0) {
+    // Before a map has started, stage 1 and 2 have nothing to compare with: the masks took them.
+    const nlohmann::json& f = *best_static;
+    const int checks = f["stage1_removed"].get<int>() + f["stage2_removed"].get<int>();
+    msg << ", but none kept " << needed << " once the dynamic features were removed (dynamic.mode "
+        << nameOf(options.dynamic.mode) << "): in the frame that kept the most, all but "
+        << f["static_with_depth"].get<int>() << " of its " << f["features_with_depth"].get<int>()
+        << " lay in the dynamic-object masks";
+    if (checks > 0) msg << " or failed the depth checks (stage 1 and 2 removed " << checks << ")";
+    if (options.semantic.segmenter == SegmenterKind::kMaskDir) {
+      msg << ": are the masks in semantic.mask_dir (" << options.semantic.mask_dir
+          << ") right (nonzero = dynamic), or is the view covered by people?";
+    } else {
+      std::string classes;
+      for (const int c : options.semantic.dynamic_classes) classes += (classes.empty() ? "" : ", ") + std::to_string(c);
+      msg << ": is semantic.dynamic_classes right ([" << classes << "]; 15 = person), or is the view covered by people?";
+    }
+  } else {
+    if (enough_static < enough) msg << ", " << enough_static << " of them with enough outside the dynamic masks";
     msg << ", but none started a map: are the keypoints spread over at least atlas.min_initial_cells ("
         << options.atlas.min_initial_cells << ") cells of a 4 x 4 grid?";
+  }
   return msg.str();
 }
 

@@ -240,6 +240,8 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   const int mapping_backlog = mapping_thread_ == nullptr ? 0 : mapping_thread_->backlog();
   const tracking::TrackOutcome outcome = tracker_.track(frame, mapping_idle, mapping_backlog);
   stats.tracking_ms = millisecondsSince(track_start);
+  for (size_t i = 0; i < frame.features->size(); ++i)
+    stats.static_with_depth += frame.usable(i) && frame.features->hasDepth(i) ? 1 : 0;
   stats.tracked = outcome.tracked;
   stats.stage1_checked = outcome.stage1_checked;
   stats.stage1_removed = outcome.stage1_removed;
@@ -563,6 +565,7 @@ nlohmann::json SlamSystem::statistics() const {
                          {"keyframe", f.keyframe}, {"inliers", f.inliers}, {"motion_model", f.motion_model},
                          {"timestamp", f.timestamp}, {"map", f.map}, {"new_map", f.new_map},
                          {"features_with_depth", f.features_with_depth},
+                         {"static_with_depth", f.static_with_depth},
                          {"weak", f.weak}, {"predicted", f.predicted}});
     if (f.reloc_candidates >= 0)
       per_frame.back()["relocalisation"] = {{"candidates", f.reloc_candidates}, {"best_matches", f.reloc_matches},

@@ -82,6 +82,9 @@ struct FrameStats {
   bool own_mask_waited = false;  // lost: waited for its own mask instead of a carried one
   int features_added_outside_mask = 0;  // extra features on the background (a mask covered most)
   int features_with_depth = 0;  // keypoints with a valid depth reading (tracking.min/max_depth)
+  // Of those, the ones still static after tracking (not in the mask, not removed by stage 1/2):
+  // what starting a map counts (atlas.min_initial_features).
+  int static_with_depth = 0;
   int features = 0, in_mask = 0, semantic_removed = 0, stage1_checked = 0, stage1_removed = 0, stage2_removed = 0;
   int free_space_removed = 0;  // of stage1_removed: the free-space test outside the mask
   bool tracked = false;

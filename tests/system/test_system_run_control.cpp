@@ -254,5 +254,32 @@ TEST_F(RunControl, NothingTrackedWritesTheReportAndSaysWhy) {
   EXPECT_TRUE(io::readTumTrajectory(out() / "CameraTrajectory.txt").empty());
 }
 
+// Masks covering the whole view (mask_dir, one all-dynamic PNG per frame): every frame has
+// keypoints with depth, but the masks take them all; the message says so, not "spread".
+TEST_F(RunControl, NothingTrackedBecauseTheMasksCoverEverythingSaysSo) {
+  constexpr int kFrames = 8;
+  prepare(kFrames);
+  const fs::path masks = dir_ / "masks";
+  fs::create_directories(masks);
+  const cv::Mat everything(480, 640, CV_8UC1, cv::Scalar(255));
+  for (const auto& entry : fs::directory_iterator(sequence() / "rgb"))
+    ASSERT_TRUE(cv::imwrite((masks / entry.path().filename()).string(), everything));
+  const CommandResult r = run("--dynamic semantic --set semantic.segmenter=mask_dir --set " +
+                              shellQuote("semantic.mask_dir=" + masks.string()));
+  EXPECT_EQ(r.exit_code, exit_code::kNothingTracked) << r.err;
+  EXPECT_CONTAINS(r.err, "of 8 frames had 500 or more keypoints with valid depth");
+  EXPECT_CONTAINS(r.err, "but none kept 500 once the dynamic features were removed (dynamic.mode semantic)");
+  EXPECT_CONTAINS(r.err, "all but 0 of its");
+  EXPECT_CONTAINS(r.err, "lay in the dynamic-object masks");
+  EXPECT_CONTAINS(r.err, "are the masks in semantic.mask_dir (" + masks.string() + ") right");
+  EXPECT_EQ(r.err.find("spread"), std::string::npos) << r.err;
+  const nlohmann::json j = report();
+  EXPECT_CONTAINS(j["nothing_tracked"].get<std::string>(), "dynamic-object masks");
+  const nlohmann::json& first = j["statistics"]["per_frame"][0];
+  EXPECT_GE(first["features_with_depth"].get<int>(), 500);
+  EXPECT_EQ(first["static_with_depth"].get<int>(), 0);
+  EXPECT_EQ(first["semantic_removed"], first["features"]);
+}
+
 }  // namespace
 }  // namespace desslam
