@@ -183,8 +183,9 @@ struct Interruption {
 };
 
 // DESSLAM_HOLD_AT=stage[,stage...] (tests): at each named stage ("frame:N" after frame N, "mapping",
-// "final_ba", "dense", "export", "report") the run says so on stderr and waits for a signal (at
-// most 60 s), so a test can signal it exactly there.
+// "final_ba", "dense", "export", "report"; "octomap": at every progress report of the OctoMap's
+// ray insertion) the run says so on stderr and waits for a signal (at most 60 s), so a test can
+// signal it exactly there.
 void holdIfAsked(const std::string& stage) {
   static const std::vector<std::string> stages = [] {
     std::vector<std::string> list;
@@ -482,11 +483,36 @@ int runSequence(const RunArgs& args) {
   if (error.code == exit_code::kOutputError) {
     report["dense"] = {{"exported", false}, {"note", "skipped: an earlier output could not be written"}};
   } else {
+    // The OctoMap can take long (a fine dense.octomap_resolution on a large map): a signal is
+    // acknowledged at once, a second one stops it (g_skip_optional), and after a second a
+    // progress line shows how far it is.
+    const auto export_start = std::chrono::steady_clock::now();
+    auto last_line = export_start;
+    bool progress_shown = false;
+    const auto on_progress = [&](const std::string& file, double share) {
+      notice("export", next_frame);
+      holdIfAsked("octomap");
+      notice("export", next_frame);
+      const auto now = std::chrono::steady_clock::now();
+      if (args.quiet || now - export_start < std::chrono::seconds(1) ||
+          (progress_shown && now - last_line < std::chrono::milliseconds(500)))
+        return;
+      last_line = now;
+      progress_shown = true;
+      std::fprintf(stderr, "\rexporting the dense map: %s %.0f %% (%.0f s)   ", file.c_str(), 100.0 * share,
+                   std::chrono::duration<double>(now - export_start).count());
+      std::fflush(stderr);
+    };
     attempt(error, [&] {
-      report["dense"] = nlohmann::json::parse(slam.exportDenseMap(out_dir, args.map_color == "semantic", &g_skip_optional));
+      report["dense"] = nlohmann::json::parse(
+          slam.exportDenseMap(out_dir, args.map_color == "semantic", &g_skip_optional, on_progress));
     });
+    if (progress_shown) std::fprintf(stderr, "\n");
   }
   if (report["dense"].contains("note")) std::fprintf(stderr, "note: dense map: %s\n", report["dense"]["note"].get<std::string>().c_str());
+  if (report["dense"].contains("warnings"))
+    for (const nlohmann::json& warning : report["dense"]["warnings"])
+      std::fprintf(stderr, "warning: dense map: %s\n", warning.get<std::string>().c_str());
   if (sequence.groundTruth() && trajectory.size() < 3) {
     report["evaluation_error"] = "the main map's trajectory has " + std::to_string(trajectory.size()) +
                                  (trajectory.size() == 1 ? " pose" : " poses") + ", too few: ATE needs at least 3";
