@@ -27,8 +27,16 @@ struct EvalArgs {
 void runEval(const EvalArgs& args) {
   const Trajectory gt = io::readTumTrajectory(args.groundtruth);
   const Trajectory est = io::readTumTrajectory(args.estimate);
-  const eval::AteResult ate = eval::computeAte(gt, est, args.max_dt);
-  const eval::RpeResult rpe = eval::computeRpe(gt, est, args.delta_s, args.max_dt);
+  // The metrics' errors (too few poses, timestamps that do not associate) name both files.
+  const auto evaluate = [&](const auto& compute) {
+    try {
+      return compute();
+    } catch (const InputError& e) {
+      throw InputError(args.estimate + " against " + args.groundtruth + ": " + e.what());
+    }
+  };
+  const eval::AteResult ate = evaluate([&] { return eval::computeAte(gt, est, args.max_dt); });
+  const eval::RpeResult rpe = evaluate([&] { return eval::computeRpe(gt, est, args.delta_s, args.max_dt); });
   // The readers refuse non-finite poses; a result that still is not finite (poses so far apart
   // that squares overflow) is bad input too, never a table of inf and nan.
   const nlohmann::json results = {{"ate", eval::toJson(ate)}, {"rpe", eval::toJson(rpe)}};

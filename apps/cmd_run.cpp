@@ -183,8 +183,9 @@ struct Interruption {
 };
 
 // DESSLAM_HOLD_AT=stage[,stage...] (tests): at each named stage ("frame:N" after frame N, "mapping",
-// "final_ba", "dense", "export", "report") the run says so on stderr and waits for a signal (at
-// most 60 s), so a test can signal it exactly there.
+// "final_ba", "dense", "export", "report"; "octomap": at every progress report of the OctoMap's
+// ray insertion) the run says so on stderr and waits for a signal (at most 60 s), so a test can
+// signal it exactly there.
 void holdIfAsked(const std::string& stage) {
   static const std::vector<std::string> stages = [] {
     std::vector<std::string> list;
@@ -275,28 +276,53 @@ void writeJson(const std::filesystem::path& path, const nlohmann::json& j) {
   writeFileAtomically(path, j.dump(2) + "\n", "report");
 }
 
-// Why a run tracked no frame, from the per-frame keypoint counts (statistics' "per_frame").
+// Why a run tracked no frame, from the per-frame keypoint counts (statistics' "per_frame"):
+// too few keypoints with depth (camera covered, wrong depth scale), too few of them left once the
+// dynamic features were removed (masks covering the view), or too little spread to start a map.
 std::string nothingTrackedMessage(const nlohmann::json& per_frame, const SystemOptions& options, size_t frame_count) {
   if (per_frame.empty()) return "nothing was tracked: no frame was processed (of " + std::to_string(frame_count) + ")";
   const int needed = options.atlas.min_initial_features;
-  size_t enough = 0;
+  size_t enough = 0, enough_static = 0;
   int best = 0;
+  const nlohmann::json* best_static = &per_frame.front();  // the frame that kept the most
   for (const nlohmann::json& f : per_frame) {
     const int with_depth = f["features_with_depth"].get<int>();
+    const int kept = f["static_with_depth"].get<int>();
     enough += with_depth >= needed ? 1 : 0;
+    enough_static += kept >= needed ? 1 : 0;
     best = std::max(best, with_depth);
+    if (kept > (*best_static)["static_with_depth"].get<int>()) best_static = &f;
   }
   std::ostringstream msg;
   msg << "nothing was tracked: " << enough << " of " << per_frame.size() << " frames had " << needed
       << " or more keypoints with valid depth (atlas.min_initial_features, needed to start a map; the best frame had "
       << best << ")";
-  if (enough == 0)
+  if (enough == 0) {
     msg << ": is the camera covered, is camera.depth_factor right (" << options.camera.depth_factor
         << " depth-image units per metre), does tracking.min_depth/max_depth (" << options.tracking.min_depth << "-"
         << options.tracking.max_depth << " m) cover the scene?";
-  else
+  } else if (enough_static == 0) {
+    // Before a map has started, stage 1 and 2 have nothing to compare with: the masks took them.
+    const nlohmann::json& f = *best_static;
+    const int checks = f["stage1_removed"].get<int>() + f["stage2_removed"].get<int>();
+    msg << ", but none kept " << needed << " once the dynamic features were removed (dynamic.mode "
+        << nameOf(options.dynamic.mode) << "): in the frame that kept the most, all but "
+        << f["static_with_depth"].get<int>() << " of its " << f["features_with_depth"].get<int>()
+        << " lay in the dynamic-object masks";
+    if (checks > 0) msg << " or failed the depth checks (stage 1 and 2 removed " << checks << ")";
+    if (options.semantic.segmenter == SegmenterKind::kMaskDir) {
+      msg << ": are the masks in semantic.mask_dir (" << options.semantic.mask_dir
+          << ") right (nonzero = dynamic), or is the view covered by people?";
+    } else {
+      std::string classes;
+      for (const int c : options.semantic.dynamic_classes) classes += (classes.empty() ? "" : ", ") + std::to_string(c);
+      msg << ": is semantic.dynamic_classes right ([" << classes << "]; 15 = person), or is the view covered by people?";
+    }
+  } else {
+    if (enough_static < enough) msg << ", " << enough_static << " of them with enough outside the dynamic masks";
     msg << ", but none started a map: are the keypoints spread over at least atlas.min_initial_cells ("
         << options.atlas.min_initial_cells << ") cells of a 4 x 4 grid?";
+  }
   return msg.str();
 }
 
@@ -457,12 +483,40 @@ int runSequence(const RunArgs& args) {
   if (error.code == exit_code::kOutputError) {
     report["dense"] = {{"exported", false}, {"note", "skipped: an earlier output could not be written"}};
   } else {
+    // The OctoMap can take long (a fine dense.octomap_resolution on a large map): a signal is
+    // acknowledged at once, a second one stops it (g_skip_optional), and after a second a
+    // progress line shows how far it is.
+    const auto export_start = std::chrono::steady_clock::now();
+    auto last_line = export_start;
+    bool progress_shown = false;
+    const auto on_progress = [&](const std::string& file, double share) {
+      notice("export", next_frame);
+      holdIfAsked("octomap");
+      notice("export", next_frame);
+      const auto now = std::chrono::steady_clock::now();
+      if (args.quiet || now - export_start < std::chrono::seconds(1) ||
+          (progress_shown && now - last_line < std::chrono::milliseconds(500)))
+        return;
+      last_line = now;
+      progress_shown = true;
+      std::fprintf(stderr, "\rexporting the dense map: %s %.0f %% (%.0f s)   ", file.c_str(), 100.0 * share,
+                   std::chrono::duration<double>(now - export_start).count());
+      std::fflush(stderr);
+    };
     attempt(error, [&] {
-      report["dense"] = nlohmann::json::parse(slam.exportDenseMap(out_dir, args.map_color == "semantic", &g_skip_optional));
+      report["dense"] = nlohmann::json::parse(
+          slam.exportDenseMap(out_dir, args.map_color == "semantic", &g_skip_optional, on_progress));
     });
+    if (progress_shown) std::fprintf(stderr, "\n");
   }
   if (report["dense"].contains("note")) std::fprintf(stderr, "note: dense map: %s\n", report["dense"]["note"].get<std::string>().c_str());
-  if (sequence.groundTruth() && trajectory.size() >= 3) {
+  if (report["dense"].contains("warnings"))
+    for (const nlohmann::json& warning : report["dense"]["warnings"])
+      std::fprintf(stderr, "warning: dense map: %s\n", warning.get<std::string>().c_str());
+  if (sequence.groundTruth() && trajectory.size() < 3) {
+    report["evaluation_error"] = "the main map's trajectory has " + std::to_string(trajectory.size()) +
+                                 (trajectory.size() == 1 ? " pose" : " poses") + ", too few: ATE needs at least 3";
+  } else if (sequence.groundTruth()) {
     try {
       const eval::AteResult ate = eval::computeAte(*sequence.groundTruth(), trajectory);
       const eval::RpeResult rpe = eval::computeRpe(*sequence.groundTruth(), trajectory);
@@ -484,6 +538,9 @@ int runSequence(const RunArgs& args) {
       report["evaluation_error"] = e.what();
     }
   }
+  // Where the ATE table would be, why there is none (a run without a pose says why itself).
+  if (!args.quiet && report.contains("evaluation_error") && !trajectory.empty())
+    std::cout << "ATE/RPE          n/a: " << report["evaluation_error"].get<std::string>() << "\n";
   notice("report", next_frame);
   holdIfAsked("report");
   notice("report", next_frame);

@@ -188,9 +188,15 @@ class Slam {
   // map without keyframes writes nothing ("exported": false and a "note" say so). Once *abort is
   // true (checked between files, e.g. a signal handler's flag), the files still to come are
   // skipped: all of them when it is true from the start ("exported": false, "note"), otherwise
-  // the OctoMap and the PNG that follow the point cloud ("skipped" lists them).
+  // the OctoMap and the PNG that follow the point cloud ("skipped" lists them); the OctoMap's ray
+  // insertion, the one export that can take long, also looks at it while it runs (stops within a
+  // fraction of a second). on_progress(file, share done 0..1), when given, is called from this
+  // thread during that insertion, a few times a second or more. An OctoMap whose rays would cross
+  // more than dense.octomap_max_ray_cells cells is written at a coarser resolution ("warnings"
+  // says so, "octomap" gives the resolution used).
   std::string exportDenseMap(const std::filesystem::path& directory, bool semantic_colour = false,
-                             const std::atomic<bool>* abort = nullptr) const;
+                             const std::atomic<bool>* abort = nullptr,
+                             const std::function<void(const std::string& file, double share)>& on_progress = {}) const;
   // Counts, timings and per-frame statistics as JSON text (report.json's "statistics").
   std::string statisticsJson() const;
 

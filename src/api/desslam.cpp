@@ -222,9 +222,10 @@ void Slam::writeKeyframeTrajectory(const std::filesystem::path& file) const {
 }
 
 std::string Slam::exportDenseMap(const std::filesystem::path& directory, bool semantic_colour,
-                                 const std::atomic<bool>* abort) const {
+                                 const std::atomic<bool>* abort,
+                                 const std::function<void(const std::string& file, double share)>& on_progress) const {
   std::filesystem::create_directories(directory);
-  return impl_->system.exportDenseMap(directory, semantic_colour, abort).dump(2);
+  return impl_->system.exportDenseMap(directory, semantic_colour, abort, on_progress).dump(2);
 }
 
 std::string Slam::statisticsJson() const { return impl_->system.statistics().dump(2); }

@@ -11,6 +11,7 @@ void DenseOptions::validate() const {
   requireInRange(s, "outlier_neighbors", outlier_neighbors, 0, 1000);
   requireInRange(s, "outlier_std_ratio", outlier_std_ratio, 0.01, 100.0);
   requireInRange(s, "octomap_resolution", octomap_resolution, 0.001, 10.0);
+  requireInRange(s, "octomap_max_cells", octomap_max_cells, 1e3, 1e13);
   requireInRange(s, "exclude_dilation_px", exclude_dilation_px, 0, 100);
   requireInRange(s, "depth_edge_ratio", depth_edge_ratio, 0.0, 10.0);
   requireInRange(s, "queue_capacity", queue_capacity, 1, 100000);

@@ -3,7 +3,10 @@
 // the reason when it cannot be written.
 #pragma once
 
+#include <algorithm>
+#include <atomic>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -41,6 +44,36 @@ std::vector<Timestamp> readMapSources(const std::filesystem::path& path,
 // up to max_range. Dynamic pixels were left out of the scans, so people leave no occupied cells.
 void writeOctomap(const std::filesystem::path& path, const std::vector<WorldScan>& scans, double resolution,
                   double max_range);
+// The same, for exports that may take long: progress(share done, 0..1) is called at the start of
+// each scan and then every 1024 rays (or 2^18 cells they cross) and 16384 cell updates, a few
+// hundredths of a second of work at any resolution, and *abort (e.g. a signal handler's flag) is
+// looked at right after each call; once it is true the insertion stops and nothing is written
+// (returns false). Either may be null/empty. The file is byte for byte what
+// octomap::OcTree::insertPointCloud (discretized, lazy) of each scan gives.
+bool writeOctomap(const std::filesystem::path& path, const std::vector<WorldScan>& scans, double resolution,
+                  double max_range, const std::atomic<bool>* abort, const std::function<void(double)>& progress);
+
+// How much work ray insertion at `resolution` is, estimated from the scans before it starts: one
+// ray per end cell (the points merged per cell), the cells the rays cross (ray_cells), the cell
+// updates (per scan, the distinct cells its rays cross, estimated from how they fan out, plus its
+// end cells: what the insertion's time grows with) and the cells of the box around every ray. The
+// tree holds at most cells() = min(cell_updates, box_cells) leaves: what its memory grows with.
+// fr1_xyz, 10 keyframes (the estimate is 1.1-2.3x the real count): 2.6e5 cells at 0.05 m
+// (0.1 s), 1.9e7 at 0.01 m (10 s, 0.3 GiB), 5.6e7 at 0.005 m (60 s, 1.8 GiB); 1 keyframe at
+// 0.001 m: 6e7 (200 s, 9 GiB: sparse rays cost ~130 bytes per cell).
+struct OctomapCost {
+  size_t rays = 0;
+  double ray_cells = 0;
+  double cell_updates = 0;
+  double box_cells = 0;
+  double cells() const { return std::min(cell_updates, box_cells); }
+};
+OctomapCost octomapCost(const std::vector<WorldScan>& scans, double resolution, double max_range);
+// The resolution to write the OctoMap at: `resolution` when its cells() are at most max_cells,
+// else the finest resolution * 2^k (k = 1, 2, ...) whose are.
+double boundedOctomapResolution(const std::vector<WorldScan>& scans, double resolution, double max_range,
+                                double max_cells);
+
 // OctoMap .bt from the POINTS ALONE (e.g. the fused cloud): occupied cells only, no free space.
 void writeOctomap(const std::filesystem::path& path, const open3d::geometry::PointCloud& cloud, double resolution);
 

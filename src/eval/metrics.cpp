@@ -12,8 +12,18 @@
 namespace desslam::eval {
 namespace {
 
-std::string tooFewMatchesMessage(std::size_t matched, std::size_t needed, const Trajectory& gt,
+std::string poseCount(std::size_t n) { return std::to_string(n) + (n == 1 ? " pose" : " poses"); }
+
+// Why fewer than `needed` poses could be compared: a trajectory with too few poses at all, or
+// poses whose timestamps did not associate (`metric`: "ATE" or "RPE").
+std::string tooFewMatchesMessage(const char* metric, std::size_t matched, std::size_t needed, const Trajectory& gt,
                                  const Trajectory& est, double max_dt) {
+  const std::string at_least = std::string(metric) + " needs at least " + std::to_string(needed);
+  if (est.size() < needed)
+    return "the estimate has " + poseCount(est.size()) + ", too few: " + at_least +
+           " (a run that tracked fewer frames, or the wrong file?)";
+  if (gt.size() < needed)
+    return "the ground truth has " + poseCount(gt.size()) + ", too few: " + at_least + " (the wrong file?)";
   return "no timestamps within max_dt: are these the same sequence? (" + std::to_string(matched) + " of " +
          std::to_string(est.size()) + " estimate poses have a ground-truth pose (of " + std::to_string(gt.size()) +
          ") within max_dt = " + std::to_string(max_dt) + " s; need " + std::to_string(needed) +
@@ -47,7 +57,7 @@ ErrorStats summarize(std::vector<double> errors) {
 
 AteResult computeAte(const Trajectory& gt, const Trajectory& est, double max_dt) {
   const std::vector<Match> matches = associate(gt, est, max_dt);
-  if (matches.size() < 3) throw InputError(tooFewMatchesMessage(matches.size(), 3, gt, est, max_dt));
+  if (matches.size() < 3) throw InputError(tooFewMatchesMessage("ATE", matches.size(), 3, gt, est, max_dt));
 
   std::vector<Vec3> est_points, gt_points;
   est_points.reserve(matches.size());
@@ -81,7 +91,7 @@ RpeResult computeRpe(const Trajectory& gt, const Trajectory& est, double delta_s
   if (!std::isfinite(delta_s) || delta_s <= 0)
     throw InputError("delta = " + std::to_string(delta_s) + ": the RPE window must be a positive number of seconds");
   const std::vector<Match> matches = associate(gt, est, max_dt);
-  if (matches.size() < 2) throw InputError(tooFewMatchesMessage(matches.size(), 2, gt, est, max_dt));
+  if (matches.size() < 2) throw InputError(tooFewMatchesMessage("RPE", matches.size(), 2, gt, est, max_dt));
 
   std::vector<double> times;  // associated estimate times, ascending (associate sorts by them)
   times.reserve(matches.size());

@@ -34,7 +34,8 @@ struct AteResult {
 };
 
 // Associates (max_dt seconds), aligns with one rigid SE(3), reports translation errors.
-// Throws InputError when fewer than 3 poses associate ("no timestamps within max_dt").
+// Throws InputError when fewer than 3 poses associate: "the estimate has N poses, too few" (or
+// the ground truth) when a trajectory has fewer than 3, else "no timestamps within max_dt".
 AteResult computeAte(const Trajectory& gt, const Trajectory& est, double max_dt = 0.02);
 
 // One RPE pair: estimate poses at start_time and end_time (about delta_s later).
@@ -54,7 +55,8 @@ struct RpeResult {
 // For each associated estimate pose i, the associated estimate pose j whose time is closest to
 // t_i + delta_s; error E = (gt_i^-1 gt_j)^-1 (est_i^-1 est_j). Pairs whose window would reach
 // past the last associated pose are skipped, so a trajectory shorter than delta_s gives 0 pairs.
-// Throws InputError when fewer than 2 poses associate or delta_s is not positive.
+// Throws InputError when fewer than 2 poses associate (worded as for computeAte) or delta_s is not
+// positive.
 RpeResult computeRpe(const Trajectory& gt, const Trajectory& est, double delta_s = 1.0, double max_dt = 0.02);
 
 }  // namespace desslam::eval

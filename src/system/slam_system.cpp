@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <map>
 #include <mutex>
 #include <shared_mutex>
@@ -240,6 +241,8 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   const int mapping_backlog = mapping_thread_ == nullptr ? 0 : mapping_thread_->backlog();
   const tracking::TrackOutcome outcome = tracker_.track(frame, mapping_idle, mapping_backlog);
   stats.tracking_ms = millisecondsSince(track_start);
+  for (size_t i = 0; i < frame.features->size(); ++i)
+    stats.static_with_depth += frame.usable(i) && frame.features->hasDepth(i) ? 1 : 0;
   stats.tracked = outcome.tracked;
   stats.stage1_checked = outcome.stage1_checked;
   stats.stage1_removed = outcome.stage1_removed;
@@ -563,6 +566,7 @@ nlohmann::json SlamSystem::statistics() const {
                          {"keyframe", f.keyframe}, {"inliers", f.inliers}, {"motion_model", f.motion_model},
                          {"timestamp", f.timestamp}, {"map", f.map}, {"new_map", f.new_map},
                          {"features_with_depth", f.features_with_depth},
+                         {"static_with_depth", f.static_with_depth},
                          {"weak", f.weak}, {"predicted", f.predicted}});
     if (f.reloc_candidates >= 0)
       per_frame.back()["relocalisation"] = {{"candidates", f.reloc_candidates}, {"best_matches", f.reloc_matches},
@@ -674,7 +678,8 @@ nlohmann::json SlamSystem::statistics() const {
 }
 
 nlohmann::json SlamSystem::exportDenseMap(const std::filesystem::path& out_dir, bool semantic_colour,
-                                          const std::atomic<bool>* abort) const {
+                                          const std::atomic<bool>* abort,
+                                          const std::function<void(const std::string& file, double share)>& on_progress) const {
   if (!dense_) return {{"enabled", false}};
   const auto aborted = [abort] { return abort != nullptr && abort->load(); };
   if (aborted())
@@ -723,7 +728,8 @@ nlohmann::json SlamSystem::exportDenseMap(const std::filesystem::path& out_dir, 
                          " keyframes mapped): no dense map files written"}};
   // The point cloud, its PCD copy and the sidecar are one set (mapcheck reads them together);
   // the OctoMap and the PNG follow, each skipped once the run is interrupted a second time.
-  nlohmann::json files = nlohmann::json::array(), skipped = nlohmann::json::array();
+  nlohmann::json files = nlohmann::json::array(), skipped = nlohmann::json::array(),
+                 warnings = nlohmann::json::array(), octomap = nlohmann::json::object();
   dense::writePly(out_dir / "dense_map.ply", *cloud);
   dense::writePcd(out_dir / "dense_map.pcd", *cloud);
   dense::writeMapSources(out_dir / "dense_map_sources.bin", exported.first_seen);
@@ -733,10 +739,34 @@ nlohmann::json SlamSystem::exportDenseMap(const std::filesystem::path& out_dir, 
     skipped.push_back("octomap.bt");
   } else {
     const auto octomap_start = std::chrono::steady_clock::now();
-    dense::writeOctomap(out_dir / "octomap.bt", dense->worldScans(poses), options_.dense.octomap_resolution,
-                        options_.dense.max_depth);
+    const std::vector<dense::WorldScan> scans = dense->worldScans(poses);
+    // Bounded before it starts: a resolution that would give too large a tree is coarsened.
+    const DenseOptions& o = options_.dense;
+    const double resolution =
+        dense::boundedOctomapResolution(scans, o.octomap_resolution, o.max_depth, o.octomap_max_cells);
+    const dense::OctomapCost cost = dense::octomapCost(scans, resolution, o.max_depth);
+    octomap = {{"resolution", resolution}, {"rays", cost.rays}, {"ray_cells", cost.ray_cells},
+               {"cells_estimated", cost.cells()}};
+    if (resolution != o.octomap_resolution) {
+      const dense::OctomapCost asked = dense::octomapCost(scans, o.octomap_resolution, o.max_depth);
+      char text[640];
+      std::snprintf(text, sizeof text,
+                    "dense.octomap_resolution = %g m would give an OctoMap of about %.2g cells (%zu rays, keyframes: "
+                    "%zu), more than dense.octomap_max_cells = %.2g: its time and memory grow as "
+                    "1/resolution^3 (minutes and GiB from 1e8 cells on); octomap.bt is written at %g m instead "
+                    "(about %.2g cells); raise dense.octomap_max_cells to allow the finer one",
+                    o.octomap_resolution, asked.cells(), asked.rays, scans.size(), o.octomap_max_cells, resolution,
+                    cost.cells());
+      warnings.push_back(text);
+      octomap["resolution_configured"] = o.octomap_resolution;
+      octomap["cells_estimated_configured"] = asked.cells();
+    }
+    const bool written = dense::writeOctomap(out_dir / "octomap.bt", scans, resolution, o.max_depth, abort,
+                                             [&on_progress](double share) {
+                                               if (on_progress) on_progress("octomap.bt", share);
+                                             });
     octomap_ms = millisecondsSince(octomap_start);
-    files.push_back("octomap.bt");
+    (written ? files : skipped).push_back("octomap.bt");
   }
   if (aborted()) {
     skipped.push_back("dense_map.png");
@@ -754,6 +784,8 @@ nlohmann::json SlamSystem::exportDenseMap(const std::filesystem::path& out_dir, 
           {"exported", true},
           {"files", files},
           {"skipped", skipped},
+          {"warnings", warnings},
+          {"octomap", octomap},
           {"keyframes", stats.keyframes},
           {"keyframes_culled", stats.culled},
           {"stored_voxels", stats.voxels},

@@ -82,6 +82,9 @@ struct FrameStats {
   bool own_mask_waited = false;  // lost: waited for its own mask instead of a carried one
   int features_added_outside_mask = 0;  // extra features on the background (a mask covered most)
   int features_with_depth = 0;  // keypoints with a valid depth reading (tracking.min/max_depth)
+  // Of those, the ones still static after tracking (not in the mask, not removed by stage 1/2):
+  // what starting a map counts (atlas.min_initial_features).
+  int static_with_depth = 0;
   int features = 0, in_mask = 0, semantic_removed = 0, stage1_checked = 0, stage1_removed = 0, stage2_removed = 0;
   int free_space_removed = 0;  // of stage1_removed: the free-space test outside the mask
   bool tracked = false;
@@ -137,10 +140,14 @@ class SlamSystem {
   // After finish(): fuses the dense map with the final keyframe poses and writes dense_map.ply,
   // dense_map.pcd, dense_map_sources.bin, octomap.bt and dense_map.png into out_dir. Returns counts
   // and timings. An empty dense map (no keyframe) writes nothing and says so ("exported": false,
-  // "note"). Once *abort is true (checked between files), the files still to come are skipped
-  // ("skipped" lists them). Files are written atomically; a failure throws OutputError.
+  // "note"). Once *abort is true (checked between files and during the OctoMap's ray insertion),
+  // the files still to come are skipped ("skipped" lists them). on_progress(file, share done) is
+  // called during the OctoMap export, the one that can take long, a few times a second or more.
+  // An OctoMap too fine for dense.octomap_max_ray_cells is written coarser ("warnings" says so).
+  // Files are written atomically; a failure throws OutputError.
   nlohmann::json exportDenseMap(const std::filesystem::path& out_dir, bool semantic_colour,
-                                const std::atomic<bool>* abort = nullptr) const;
+                                const std::atomic<bool>* abort = nullptr,
+                                const std::function<void(const std::string& file, double share)>& on_progress = {}) const;
   // After finish(): counts, timings (median/p95) and stage statistics for report.json.
   nlohmann::json statistics() const;
 

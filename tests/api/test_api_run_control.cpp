@@ -3,6 +3,7 @@
 // outcome, the dense-map export cut short, the trajectory files, debug images and emulated mask
 // latency (RunMode). On the synthetic room.
 #include <atomic>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -98,6 +99,33 @@ TEST_F(ApiRunControlTest, AnAbortedDenseExportWritesNoFiles) {
   ASSERT_TRUE(exported["exported"].get<bool>()) << exported.dump();
   for (const char* file : {"dense_map.ply", "dense_map.pcd", "dense_map_sources.bin", "octomap.bt", "dense_map.png"})
     EXPECT_TRUE(std::filesystem::is_regular_file(out.path() / "full" / file)) << file;
+}
+
+// The OctoMap export reports its progress and looks at the abort flag while it runs: set during it
+// (a second signal), the OctoMap and the PNG after it are skipped, the point cloud stays.
+TEST_F(ApiRunControlTest, AnAbortDuringTheOctomapExportStopsIt) {
+  Config config = syntheticConfig();
+  config.set("dense.enabled=true");
+  Slam slam(config, {.deterministic = true});
+  trackAll(slam, sequence());
+  slam.finish();
+  const test::TempDir out;
+  std::atomic<bool> abort{false};
+  std::vector<std::string> files;
+  std::vector<double> shares;
+  const nlohmann::json j = nlohmann::json::parse(
+      slam.exportDenseMap(out.path(), false, &abort, [&](const std::string& file, double share) {
+        files.push_back(file);
+        shares.push_back(share);
+        if (shares.size() == 2) abort = true;
+      }));
+  EXPECT_EQ(shares.size(), 2u) << "stopped at the report after the flag was set";
+  EXPECT_EQ(files, (std::vector<std::string>{"octomap.bt", "octomap.bt"}));
+  EXPECT_TRUE(j["exported"].get<bool>()) << j.dump();
+  EXPECT_EQ(j["skipped"], (nlohmann::json{"octomap.bt", "dense_map.png"})) << j.dump();
+  EXPECT_TRUE(std::filesystem::is_regular_file(out.path() / "dense_map.ply"));
+  EXPECT_FALSE(std::filesystem::exists(out.path() / "octomap.bt"));
+  EXPECT_FALSE(std::filesystem::exists(out.path() / "dense_map.png"));
 }
 
 TEST_F(ApiRunControlTest, TrajectoryFilesHoldTheTrajectories) {

@@ -1,9 +1,18 @@
 // Back-projection, fusion, exclusion and pose updates of the dense map; the free-space check;
 // export and read-back (PLY, PCD, OctoMap, PNG).
+#include <algorithm>
+#include <atomic>
+#include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <random>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
+#include <octomap/OcTree.h>
 #include <open3d/geometry/KDTreeFlann.h>
 #include <open3d/geometry/PointCloud.h>
 
@@ -308,6 +317,97 @@ TEST_F(ExportTest, OctomapFromRaysHasOccupiedWallAndFreeSpaceBeforeIt) {
 
   EXPECT_THROW(readOctomap(dir / "map.ply"), InputError);
   EXPECT_THROW(writeOctomap(dir / "no" / "map.bt", map.worldScans(), resolution, 5.0), OutputError);
+}
+
+std::string fileBytes(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// The interruptible insertion writes exactly what OctoMap's own per-scan insertion writes (the
+// export before it could be interrupted): the same file, byte for byte, with rays that reach the
+// wall and rays cut at max_range.
+TEST_F(ExportTest, OctomapFromRaysIsByteForByteOctomapsOwnInsertion) {
+  DenseMap map(DenseOptions{}, camera);
+  map.addKeyframe(a);
+  map.addKeyframe(b);
+  const std::vector<WorldScan> scans = map.worldScans();
+  for (const auto& [resolution, max_range] : std::vector<std::pair<double, double>>{{0.05, 5.0}, {0.03, 3.1}}) {
+    SCOPED_TRACE(resolution);
+    octomap::OcTree reference(resolution);
+    for (const WorldScan& scan : scans) {
+      octomap::Pointcloud points;
+      for (const Vec3& p : scan.points_w)
+        points.push_back(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z()));
+      const octomap::point3d origin(static_cast<float>(scan.origin_w.x()), static_cast<float>(scan.origin_w.y()),
+                                    static_cast<float>(scan.origin_w.z()));
+      reference.insertPointCloud(points, origin, max_range, /*lazy_eval=*/true, /*discretize=*/true);
+    }
+    reference.updateInnerOccupancy();
+    ASSERT_TRUE(reference.writeBinary((dir / "reference.bt").string()));
+    writeOctomap(dir / "map.bt", scans, resolution, max_range);
+    const std::string written = fileBytes(dir / "map.bt"), expected = fileBytes(dir / "reference.bt");
+    EXPECT_GT(expected.size(), 1000u);
+    EXPECT_TRUE(written == expected) << "octomap.bt differs from octomap::OcTree::insertPointCloud's";
+  }
+}
+
+TEST_F(ExportTest, OctomapExportReportsProgressAndStopsWhenAborted) {
+  DenseMap map(DenseOptions{}, camera);
+  map.addKeyframe(a);
+  map.addKeyframe(b);
+  std::vector<double> shares;
+  const auto record = [&shares](double share) { shares.push_back(share); };
+  ASSERT_TRUE(writeOctomap(dir / "map.bt", map.worldScans(), 0.02, 5.0, nullptr, record));
+  ASSERT_GE(shares.size(), 4u);  // at least the start and the cell updates of each of 2 scans
+  EXPECT_EQ(shares.front(), 0.0);
+  EXPECT_EQ(shares.back(), 1.0);
+  EXPECT_TRUE(std::is_sorted(shares.begin(), shares.end()));
+
+  // Aborted at its second report (e.g. a second signal during the export): nothing is written.
+  std::atomic<bool> abort{false};
+  int reports = 0;
+  const bool written = writeOctomap(dir / "aborted.bt", map.worldScans(), 0.02, 5.0, &abort,
+                                    [&](double) { abort = ++reports >= 2; });
+  EXPECT_FALSE(written);
+  EXPECT_EQ(reports, 2) << "stopped right after the report that set the flag";
+  EXPECT_FALSE(std::filesystem::exists(dir / "aborted.bt"));
+  for (const auto& entry : std::filesystem::directory_iterator(dir))
+    EXPECT_EQ(entry.path().filename().string().rfind(".desslam-tmp", 0), std::string::npos) << entry.path();
+}
+
+TEST_F(ExportTest, OctomapCostGrowsWithTheResolutionAndBoundsIt) {
+  DenseMap map(DenseOptions{}, camera);
+  map.addKeyframe(a);
+  map.addKeyframe(b);
+  const std::vector<WorldScan> scans = map.worldScans();
+  const OctomapCost coarse = octomapCost(scans, 0.1, 5.0), fine = octomapCost(scans, 0.025, 5.0);
+  EXPECT_GT(coarse.rays, 100u);
+  EXPECT_GT(fine.rays, coarse.rays);
+  EXPECT_GT(fine.cells(), 8 * coarse.cells());  // 4x finer: at least 4^1.5 as many cells
+  EXPECT_LE(fine.cells(), fine.ray_cells + static_cast<double>(fine.rays));
+  // The estimate is not below the cells the tree really got (its leaves, before pruning).
+  octomap::OcTree tree(0.025);
+  for (const WorldScan& scan : scans) {
+    octomap::Pointcloud points;
+    for (const Vec3& p : scan.points_w)
+      points.push_back(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z()));
+    tree.insertPointCloud(points, octomap::point3d(static_cast<float>(scan.origin_w.x()),
+                                                   static_cast<float>(scan.origin_w.y()),
+                                                   static_cast<float>(scan.origin_w.z())),
+                          5.0, true, true);
+  }
+  EXPECT_GE(fine.cells(), static_cast<double>(tree.getNumLeafNodes()));
+  EXPECT_LE(fine.cells(), 4.0 * static_cast<double>(tree.getNumLeafNodes()));
+
+  // Bounded at what 0.1 m gives: 0.025 m is coarsened by doublings to the finest that fits.
+  const double bounded = boundedOctomapResolution(scans, 0.025, 5.0, coarse.cells());
+  EXPECT_GT(bounded, 0.025);
+  EXPECT_LE(bounded, 0.1 + 1e-12);
+  EXPECT_NEAR(std::log2(bounded / 0.025), std::round(std::log2(bounded / 0.025)), 1e-9);
+  EXPECT_LE(octomapCost(scans, bounded, 5.0).cells(), coarse.cells());
+  EXPECT_GT(octomapCost(scans, bounded / 2, 5.0).cells(), coarse.cells());
+  EXPECT_EQ(boundedOctomapResolution(scans, 0.025, 5.0, fine.cells()), 0.025);  // fits: unchanged
 }
 
 TEST_F(ExportTest, RendererKeepsTheNearerSurfaceAndWritesAPng) {

@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <cmath>
+#include <string>
 #include <vector>
 #include <numbers>
 
@@ -121,6 +122,39 @@ TEST(EvalAte, DifferentSequencesThrowWithAHint) {
     EXPECT_NE(std::string(e.what()).find("no timestamps within max_dt: are these the same sequence?"),
               std::string::npos);
   }
+}
+
+// Too few poses in a file is not a clock mismatch: the message says how many there are.
+TEST(EvalAte, TooFewPosesAreToldApartFromPosesThatDoNotAssociate) {
+  const Trajectory gt = curvedGroundTruth(2.0);
+  const auto message = [](const auto& compute) {
+    try {
+      compute();
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no InputError");
+  };
+  const Trajectory empty;
+  const Trajectory two(gt.begin(), gt.begin() + 2);  // both associate
+  const std::string none = message([&] { computeAte(gt, empty, 0.02); });
+  EXPECT_NE(none.find("the estimate has 0 poses, too few: ATE needs at least 3"), std::string::npos) << none;
+  const std::string pair = message([&] { computeAte(gt, two, 0.02); });
+  EXPECT_NE(pair.find("the estimate has 2 poses, too few: ATE needs at least 3"), std::string::npos) << pair;
+  const std::string one = message([&] { computeRpe(gt, Trajectory(gt.begin(), gt.begin() + 1), 1.0, 0.02); });
+  EXPECT_NE(one.find("the estimate has 1 pose, too few: RPE needs at least 2"), std::string::npos) << one;
+  const std::string short_gt = message([&] { computeAte(two, gt, 0.02); });
+  EXPECT_NE(short_gt.find("the ground truth has 2 poses, too few: ATE needs at least 3"), std::string::npos)
+      << short_gt;
+  for (const std::string& m : {none, pair, one, short_gt}) EXPECT_EQ(m.find("same sequence"), std::string::npos) << m;
+
+  // Enough poses that do not associate keep the association message.
+  Trajectory shifted(gt.begin(), gt.begin() + 5);
+  for (StampedPose& pose : shifted) pose.timestamp += 1000.0;
+  const std::string apart = message([&] { computeAte(gt, shifted, 0.02); });
+  EXPECT_NE(apart.find("no timestamps within max_dt: are these the same sequence? (0 of 5 estimate poses"),
+            std::string::npos)
+      << apart;
 }
 
 TEST(EvalAte, StationaryEstimateIsReportedNotRejected) {

@@ -119,11 +119,15 @@ struct ChildProcess {
   pid_t pid = -1;
   std::filesystem::path out_file, err_file;
 
-  // Waits until stderr contains `text` (true) or the child ended or timeout_s passed (false).
-  bool waitForStderr(const std::string& text, double timeout_s = 120) const {
+  // Waits until stderr contains `text` (`times` times: true) or the child ended or timeout_s
+  // passed (false).
+  bool waitForStderr(const std::string& text, double timeout_s = 120, size_t times = 1) const {
     const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
     while (std::chrono::steady_clock::now() < until) {
-      if (readText(err_file).find(text) != std::string::npos) return true;
+      const std::string err = readText(err_file);
+      size_t found = 0;
+      for (size_t at = err.find(text); at != std::string::npos; at = err.find(text, at + text.size())) ++found;
+      if (found >= times) return true;
       siginfo_t info{};
       if (::waitid(P_PID, static_cast<id_t>(pid), &info, WEXITED | WNOHANG | WNOWAIT) == 0 && info.si_pid == pid)
         return false;  // ended (and left to wait() to reap)

@@ -1,10 +1,13 @@
 // The desslam program as users run it: outputs of `desslam run`, identical results of two
 // --deterministic runs, and clear failures (non-zero exit, the file or key named on stderr) on
 // bad input.
+#include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -160,6 +163,45 @@ TEST_F(DesslamCli, RunWithoutGroundTruthHasNoAte) {
   const auto report = nlohmann::json::parse(test::readText(out() / "report.json"));
   EXPECT_FALSE(report.contains("ate"));
   EXPECT_EQ(report["statistics"]["counts"]["frames"].get<size_t>(), 20u);
+}
+
+// Ground truth that covers no frame, or a trajectory too short for an ATE: the console says why
+// there is no ATE where the table would be (stdout; nothing with -q), report.json the same.
+TEST_F(DesslamCli, RunWithoutAnAteSaysWhyOnTheConsole) {
+  writeSequence(12);
+  writeConfig();
+  const fs::path gt = sequence() / "groundtruth.txt";
+  std::string shifted;  // every ground-truth pose 1000 s after the frames
+  std::istringstream lines(test::readText(gt));
+  for (std::string line; std::getline(lines, line);) {
+    if (line.empty() || line[0] == '#') {
+      shifted += line + "\n";
+      continue;
+    }
+    const size_t space = line.find(' ');
+    char stamp[64];
+    std::snprintf(stamp, sizeof stamp, "%.6f", std::stod(line.substr(0, space)) + 1000.0);
+    shifted += stamp + line.substr(space) + "\n";
+  }
+  dir_.write("sequence/groundtruth.txt", shifted);
+  const CommandResult r = run(sequence(), config(), out(), "--deterministic");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_CONTAINS(r.out, "ATE/RPE          n/a: no timestamps within max_dt: are these the same sequence?");
+  nlohmann::json report = nlohmann::json::parse(test::readText(out() / "report.json"));
+  EXPECT_FALSE(report.contains("ate"));
+  EXPECT_CONTAINS(report["evaluation_error"].get<std::string>(), "no timestamps within max_dt");
+
+  const CommandResult quiet = run(sequence(), config(), out(), "--deterministic --overwrite -q");
+  ASSERT_EQ(quiet.exit_code, 0) << quiet.err;
+  EXPECT_EQ(quiet.out, "");
+
+  // The real ground truth, but 2 frames: too few poses for an ATE.
+  writeSequence(12);
+  const CommandResult two = run(sequence(), config(), out(), "--deterministic --overwrite --max-frames 2");
+  ASSERT_EQ(two.exit_code, 0) << two.err;
+  EXPECT_CONTAINS(two.out, "ATE/RPE          n/a: the main map's trajectory has 2 poses, too few: ATE needs at least 3");
+  report = nlohmann::json::parse(test::readText(out() / "report.json"));
+  EXPECT_CONTAINS(report["evaluation_error"].get<std::string>(), "has 2 poses, too few");
 }
 
 // ---- determinism ---------------------------------------------------------------------------
@@ -361,6 +403,25 @@ TEST_F(DesslamCli, EvalWithMissingFileIsNamed) {
   EXPECT_CONTAINS(r.err, "no_such_estimate.txt");
 }
 
+TEST_F(DesslamCli, EvalOfTooFewPosesSaysHowManyTheEstimateHas) {
+  writeSequence(4);
+  const fs::path gt = sequence() / "groundtruth.txt";
+  std::string two_poses;  // the ground truth's first two poses: both associate
+  std::istringstream lines(test::readText(gt));
+  for (std::string line; std::getline(lines, line) && std::count(two_poses.begin(), two_poses.end(), '\n') < 2;)
+    if (!line.empty() && line[0] != '#') two_poses += line + "\n";
+  for (const auto& [name, text, count] : std::vector<std::tuple<std::string, std::string, std::string>>{
+           {"empty.txt", "", "0 poses"}, {"two.txt", two_poses, "2 poses"}}) {
+    SCOPED_TRACE(name);
+    dir_.write(name, text);
+    const CommandResult r = desslam("eval " + shellQuote(gt.string()) + " " + shellQuote((dir_ / name).string()));
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_CONTAINS(r.err, name + " against ");
+    EXPECT_CONTAINS(r.err, "the estimate has " + count + ", too few: ATE needs at least 3");
+    EXPECT_EQ(r.err.find("same sequence"), std::string::npos) << r.err;
+  }
+}
+
 TEST_F(DesslamCli, MissingArgumentsPrintUsage) {
   const CommandResult r = desslam("run");
   EXPECT_EQ(r.exit_code, 2);  // exit_code::kUsage
@@ -522,6 +583,24 @@ TEST_F(DesslamCli, UnknownSubCommandListsTheSubCommands) {
   EXPECT_EQ(nested.exit_code, 2);
   EXPECT_CONTAINS(nested.err, "unknown sub-command 'tran' of desslam vocab");
   EXPECT_CONTAINS(nested.err, "train, check");
+}
+
+TEST_F(DesslamCli, MissingSubCommandListsTheSubCommands) {
+  for (const char* arguments : {"", "--log-level warning"}) {
+    SCOPED_TRACE(std::string("desslam ") + arguments);
+    const CommandResult r = desslam(arguments);
+    EXPECT_EQ(r.exit_code, 2);
+    EXPECT_FALSE(r.signaled);
+    EXPECT_CONTAINS(r.err, "desslam needs a sub-command: type one of run, eval, vocab, mapcheck, report");
+    EXPECT_CONTAINS(r.err, "desslam run --help");
+  }
+  const CommandResult nested = desslam("vocab");
+  EXPECT_EQ(nested.exit_code, 2);
+  EXPECT_CONTAINS(nested.err, "desslam vocab needs a sub-command: type one of train, check");
+  // A missing option of a command without sub-commands is still CLI11's own message.
+  const CommandResult option = desslam("eval");
+  EXPECT_EQ(option.exit_code, 2);
+  EXPECT_CONTAINS(option.err, "groundtruth is required");
 }
 
 TEST_F(DesslamCli, TimestampTiesAndBadGroundTruthAreWarnings) {

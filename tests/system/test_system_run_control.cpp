@@ -3,6 +3,7 @@
 // that cannot be written, an --out folder of an earlier run, and a run that tracks nothing.
 #include <sys/wait.h>
 
+#include <cmath>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
@@ -168,6 +169,51 @@ TEST_F(RunControl, SecondSignalSkipsTheDenseExportButWritesTrajectoriesAndReport
   EXPECT_FALSE(fs::exists(out() / "dense_map.ply"));
 }
 
+// A long OctoMap export (held at its progress reports): the first signal is acknowledged at once
+// and the export goes on, the second stops it; the run still writes trajectories and report.json.
+TEST_F(RunControl, SecondSignalDuringTheOctomapExportStopsIt) {
+  prepare(12);
+  const test::ChildProcess child = start("octomap", {"--set", "dense.enabled=true"});
+  ASSERT_TRUE(child.waitForStderr("holding at octomap")) << test::readText(child.err_file);
+  child.signal(SIGINT);
+  ASSERT_TRUE(child.waitForStderr("holding at octomap", 120, 2)) << test::readText(child.err_file);
+  EXPECT_CONTAINS(test::readText(child.err_file), "interrupted by SIGINT (2) during export");
+  child.signal(SIGINT);
+  const CommandResult r = child.wait();
+  expectInterrupted(r, SIGINT, "SIGINT", "export");
+  EXPECT_CONTAINS(r.err, "second signal during export");
+  expectTrajectoriesOfFirstFrames(12);
+  const nlohmann::json j = report();
+  EXPECT_EQ(j["interruption"]["signals"], 2);
+  EXPECT_EQ(j["dense"]["exported"], true);
+  EXPECT_EQ(j["dense"]["skipped"], (nlohmann::json{"octomap.bt", "dense_map.png"}));
+  EXPECT_TRUE(fs::exists(out() / "dense_map.ply"));
+  EXPECT_FALSE(fs::exists(out() / "octomap.bt"));
+  for (const auto& entry : fs::directory_iterator(out()))
+    EXPECT_FALSE(isAtomicTempName(entry.path().filename().string())) << "left behind: " << entry.path();
+}
+
+// An OctoMap resolution whose tree would be far too large for dense.octomap_max_cells is
+// coarsened before the export starts, with a warning naming both options.
+TEST_F(RunControl, TooFineOctomapIsCoarsenedWithAWarning) {
+  prepare(12);
+  const CommandResult r = run("--set dense.enabled=true --set dense.octomap_resolution=0.001 "
+                              "--set dense.octomap_max_cells=2e5");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_CONTAINS(r.err, "warning: dense map: dense.octomap_resolution = 0.001 m would give an OctoMap of about");
+  EXPECT_CONTAINS(r.err, "more than dense.octomap_max_cells = 2e+05");
+  EXPECT_CONTAINS(r.err, "raise dense.octomap_max_cells");
+  const nlohmann::json octomap = report()["dense"]["octomap"];
+  EXPECT_EQ(octomap["resolution_configured"], 0.001);
+  const double used = octomap["resolution"].get<double>();
+  EXPECT_GE(used, 0.002);
+  EXPECT_NEAR(std::log2(used / 0.001), std::round(std::log2(used / 0.001)), 1e-9) << used;  // doublings
+  EXPECT_LE(octomap["cells_estimated"].get<double>(), 2e5);
+  EXPECT_GT(octomap["cells_estimated_configured"].get<double>(), 2e5);
+  EXPECT_TRUE(fs::exists(out() / "octomap.bt"));
+  EXPECT_CONTAINS(r.err, "octomap.bt is written at " + octomap["resolution"].dump() + " m instead");
+}
+
 // ---- outputs that cannot be written --------------------------------------------------------------
 
 TEST_F(RunControl, OutThatIsAFileIsRefusedBeforeTheFirstFrame) {
@@ -252,6 +298,33 @@ TEST_F(RunControl, NothingTrackedWritesTheReportAndSaysWhy) {
   EXPECT_EQ(j["dense"]["exported"], false);
   EXPECT_FALSE(fs::exists(out() / "dense_map.ply"));
   EXPECT_TRUE(io::readTumTrajectory(out() / "CameraTrajectory.txt").empty());
+}
+
+// Masks covering the whole view (mask_dir, one all-dynamic PNG per frame): every frame has
+// keypoints with depth, but the masks take them all; the message says so, not "spread".
+TEST_F(RunControl, NothingTrackedBecauseTheMasksCoverEverythingSaysSo) {
+  constexpr int kFrames = 8;
+  prepare(kFrames);
+  const fs::path masks = dir_ / "masks";
+  fs::create_directories(masks);
+  const cv::Mat everything(480, 640, CV_8UC1, cv::Scalar(255));
+  for (const auto& entry : fs::directory_iterator(sequence() / "rgb"))
+    ASSERT_TRUE(cv::imwrite((masks / entry.path().filename()).string(), everything));
+  const CommandResult r = run("--dynamic semantic --set semantic.segmenter=mask_dir --set " +
+                              shellQuote("semantic.mask_dir=" + masks.string()));
+  EXPECT_EQ(r.exit_code, exit_code::kNothingTracked) << r.err;
+  EXPECT_CONTAINS(r.err, "of 8 frames had 500 or more keypoints with valid depth");
+  EXPECT_CONTAINS(r.err, "but none kept 500 once the dynamic features were removed (dynamic.mode semantic)");
+  EXPECT_CONTAINS(r.err, "all but 0 of its");
+  EXPECT_CONTAINS(r.err, "lay in the dynamic-object masks");
+  EXPECT_CONTAINS(r.err, "are the masks in semantic.mask_dir (" + masks.string() + ") right");
+  EXPECT_EQ(r.err.find("spread"), std::string::npos) << r.err;
+  const nlohmann::json j = report();
+  EXPECT_CONTAINS(j["nothing_tracked"].get<std::string>(), "dynamic-object masks");
+  const nlohmann::json& first = j["statistics"]["per_frame"][0];
+  EXPECT_GE(first["features_with_depth"].get<int>(), 500);
+  EXPECT_EQ(first["static_with_depth"].get<int>(), 0);
+  EXPECT_EQ(first["semantic_removed"], first["features"]);
 }
 
 }  // namespace
