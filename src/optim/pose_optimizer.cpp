@@ -102,4 +102,19 @@ int optimizePose(const PinholeCamera& camera, SE3& T_c_w, std::vector<PoseObserv
   return classify(T_c_w);
 }
 
+int classifyPoseObservations(const PinholeCamera& camera, const SE3& T_c_w,
+                             std::vector<PoseObservation>& observations, const PoseOptimizerOptions& options) {
+  options.validate();
+  const auto K = detail::StereoIntrinsics::from(camera, options.bf);
+  int inliers = 0;
+  for (std::size_t i = 0; i < observations.size(); ++i) {
+    PoseObservation& o = observations[i];
+    requireValidObservation(o.obs, i);
+    const double threshold = o.obs.hasDepth() ? options.chi2_rgbd : options.chi2_mono;
+    o.outlier = !(detail::chi2(K, T_c_w * o.point_w, o.obs) <= threshold);
+    if (!o.outlier) ++inliers;
+  }
+  return inliers;
+}
+
 }  // namespace desslam::optim

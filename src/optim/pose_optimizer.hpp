@@ -39,4 +39,9 @@ struct PoseOptimizerOptions {
 int optimizePose(const PinholeCamera& camera, SE3& T_c_w, std::vector<PoseObservation>& observations,
                  const PoseOptimizerOptions& options = {});
 
+// Flags every observation at the fixed pose T_c_w by its chi2 against the threshold, as each round
+// of optimizePose does, without optimising. Returns the number of inliers.
+int classifyPoseObservations(const PinholeCamera& camera, const SE3& T_c_w,
+                             std::vector<PoseObservation>& observations, const PoseOptimizerOptions& options = {});
+
 }  // namespace desslam::optim

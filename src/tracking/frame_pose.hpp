@@ -13,6 +13,13 @@ namespace desslam::tracking {
 // Returns the map-point inliers (0 with fewer than 6 matches, pose untouched). bf: virtual
 // stereo baseline times fx for the depth residual. Takes map.mutex() shared while reading the
 // points; call it without holding the lock.
-int optimizeFramePose(map::Frame& frame, const map::Map& map, const PinholeCamera& camera, double bf);
+//
+// vo_check_min_map_inliers > 0: visual-odometry points must first agree with the pose the map
+// points alone give, when those give one with at least that many inliers; the ones that do not
+// are dropped (match cleared) before the joint optimisation. A VO point is the previous frame's
+// depth at a feature, never seen from a second view: a walker the masks missed carries its points
+// along, and a camera that holds still follows him (see tracking.vo_check_min_map_inliers).
+int optimizeFramePose(map::Frame& frame, const map::Map& map, const PinholeCamera& camera, double bf,
+                      int vo_check_min_map_inliers = 0);
 
 }  // namespace desslam::tracking

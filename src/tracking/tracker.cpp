@@ -499,7 +499,9 @@ bool Tracker::trackKeyframe(map::Frame& frame, map::Keyframe* keyframe) {
   return optimizeFramePose(frame) >= kMinMapInliersStep;
 }
 
-int Tracker::optimizeFramePose(map::Frame& frame) { return tracking::optimizeFramePose(frame, map_, camera_, bf_); }
+int Tracker::optimizeFramePose(map::Frame& frame) {
+  return tracking::optimizeFramePose(frame, map_, camera_, bf_, options_.tracking.vo_check_min_map_inliers);
+}
 
 void Tracker::updateLocalMap(const map::Frame& frame) {
   // Keyframes voting by the points the frame sees; the most voted becomes the reference.

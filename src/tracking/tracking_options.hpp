@@ -62,6 +62,12 @@ struct TrackingOptions {
   // crowd, t = 18.8-19.5 s: a keyframe at every frame, poses 0.3-0.4 m off). 0 = no limit.
   double crowded_view_share = 0.5;
   int crowded_keyframe_spacing = 5;
+  // Visual-odometry points (the previous frame's depth at features without a map point) enter a
+  // frame's pose only where they agree with the pose the map points alone give, when those give
+  // one with at least this many inliers (tracking/frame_pose.hpp); 0 = always used. Seen from one
+  // view only, they follow whatever moved: with a still camera and walkers close by (Bonn crowd,
+  // frames 550-650), frames followed the walkers' unmasked limbs 4-14 cm within 4-8 frames.
+  int vo_check_min_map_inliers = 20;
 
   static constexpr const char* kSection = "tracking";
   template <class V> void fields(V& v) {
@@ -79,6 +85,7 @@ struct TrackingOptions {
     v("predict_through_loss_s", predict_through_loss_s); v("crowded_view_share", crowded_view_share);
     v("search_last_pose_when_lost", search_last_pose_when_lost);
     v("crowded_keyframe_spacing", crowded_keyframe_spacing);
+    v("vo_check_min_map_inliers", vo_check_min_map_inliers);
   }
   void validate() const;
 };
