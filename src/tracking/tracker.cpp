@@ -217,6 +217,13 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     return outcome;
   }
 
+  if (recovering)
+    spdlog::debug("tracking: frame {} tracked again after {:.3f} s, {} inliers ({}{})", frame.id,
+                  frame.timestamp - last_frame_.timestamp, inliers,
+                  outcome.used_motion_model ? "motion model" : outcome.relocalisation && outcome.relocalisation->success
+                                                                     ? "relocalisation"
+                                                                     : "keyframe or last-pose search",
+                  back_in_last_map ? ", same map" : "");
   state_ = TrackingState::kOk;
   frame.has_pose = true;
   outcome.tracked = true;
@@ -424,7 +431,10 @@ bool Tracker::disagreesWithBridge(const map::Frame& frame) const {
   const double seconds = std::max(frame.timestamp - last_frame_.timestamp, 1.0 / 30.0);
   const SE3 bridged = bridgedPose(frame.timestamp);
   const double off_m = (frame.T_c_w.inverse().translation() - bridged.inverse().translation()).norm();
-  return off_m > kWeakMaxDeviationM + 0.5 * a * seconds * seconds;
+  const double limit_m = kWeakMaxDeviationM + 0.5 * a * seconds * seconds;
+  spdlog::debug("tracking: frame {} found again {:.3f} m from the bridged pose after {:.3f} s (limit {:.3f} m): {}",
+                frame.id, off_m, seconds, limit_m, off_m > limit_m ? "refused" : "accepted");
+  return off_m > limit_m;
 }
 
 SE3 Tracker::bridgedPose(Timestamp t) const {

@@ -66,7 +66,9 @@ struct TrackingOptions {
   // frame's pose only where they agree with the pose the map points alone give, when those give
   // one with at least this many inliers (tracking/frame_pose.hpp); 0 = always used. Seen from one
   // view only, they follow whatever moved: with a still camera and walkers close by (Bonn crowd,
-  // frames 550-650), frames followed the walkers' unmasked limbs 4-14 cm within 4-8 frames.
+  // frames 550-650), frames followed the walkers' unmasked limbs 4-14 cm within 4-8 frames. 20 is
+  // the bar a tracked pose must clear after stage 2: a map-only pose that would be accepted on its
+  // own is trusted to judge the VO points; below it every match is used, as without the check.
   int vo_check_min_map_inliers = 20;
 
   static constexpr const char* kSection = "tracking";
