@@ -41,6 +41,18 @@ void requireValidObservation(const Observation& obs, std::size_t index) {
                      "; it must be a positive finite 1/sigma^2 of the keypoint's pyramid level");
 }
 
+// Flags every observation at pose T by its chi2 against the threshold; returns the inliers.
+int classifyAt(const detail::StereoIntrinsics& K, const SE3& T, std::vector<PoseObservation>& observations,
+               const PoseOptimizerOptions& options) {
+  int inliers = 0;
+  for (auto& o : observations) {
+    const double threshold = o.obs.hasDepth() ? options.chi2_rgbd : options.chi2_mono;
+    o.outlier = !(detail::chi2(K, T * o.point_w, o.obs) <= threshold);
+    if (!o.outlier) ++inliers;
+  }
+  return inliers;
+}
+
 }  // namespace
 
 int optimizePose(const PinholeCamera& camera, SE3& T_c_w, std::vector<PoseObservation>& observations,
@@ -55,16 +67,7 @@ int optimizePose(const PinholeCamera& camera, SE3& T_c_w, std::vector<PoseObserv
     costs.emplace_back(detail::makePoseOnlyCost(K, observations[i].obs, observations[i].point_w));
   }
 
-  // Flags every observation at pose T; returns the number of inliers.
-  auto classify = [&](const SE3& T) {
-    int inliers = 0;
-    for (auto& o : observations) {
-      const double threshold = o.obs.hasDepth() ? options.chi2_rgbd : options.chi2_mono;
-      o.outlier = !(detail::chi2(K, T * o.point_w, o.obs) <= threshold);
-      if (!o.outlier) ++inliers;
-    }
-    return inliers;
-  };
+  auto classify = [&](const SE3& T) { return classifyAt(K, T, observations, options); };
   // Round 1 uses every observation that projects; the robust kernel absorbs the outliers.
   for (auto& o : observations) o.outlier = !std::isfinite(detail::chi2(K, T_c_w * o.point_w, o.obs));
 
@@ -105,16 +108,8 @@ int optimizePose(const PinholeCamera& camera, SE3& T_c_w, std::vector<PoseObserv
 int classifyPoseObservations(const PinholeCamera& camera, const SE3& T_c_w,
                              std::vector<PoseObservation>& observations, const PoseOptimizerOptions& options) {
   options.validate();
-  const auto K = detail::StereoIntrinsics::from(camera, options.bf);
-  int inliers = 0;
-  for (std::size_t i = 0; i < observations.size(); ++i) {
-    PoseObservation& o = observations[i];
-    requireValidObservation(o.obs, i);
-    const double threshold = o.obs.hasDepth() ? options.chi2_rgbd : options.chi2_mono;
-    o.outlier = !(detail::chi2(K, T_c_w * o.point_w, o.obs) <= threshold);
-    if (!o.outlier) ++inliers;
-  }
-  return inliers;
+  for (std::size_t i = 0; i < observations.size(); ++i) requireValidObservation(observations[i].obs, i);
+  return classifyAt(detail::StereoIntrinsics::from(camera, options.bf), T_c_w, observations, options);
 }
 
 }  // namespace desslam::optim
