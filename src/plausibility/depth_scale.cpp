@@ -168,6 +168,7 @@ nlohmann::json CheckResult::toJson() const {
                         {"ratio", scale.ratio},
                         {"spread", scale.spread},
                         {"pairs_tried", scale.pairs_tried},
+                        {"pairs_disagreeing", scale.pairs_disagreeing},
                         {"pairs", pairs}}},
                       {"findings", found}};
   if (!scale.not_judged.empty()) j["scale"]["not_judged"] = scale.not_judged;
@@ -295,6 +296,10 @@ CheckResult checkDepthScale(const std::vector<CheckFrame>& frames, const CameraO
       const Features second = extractFeatures(frames[k], extractor, camera);
       const std::optional<PairMeasurement> m = measurePair(frames[0], first, frames[k], second, camera);
       if (!m || !(m->reference_m >= options.min_baseline_m) || !(m->ratio > 0) || !std::isfinite(m->ratio)) continue;
+      if (m->direction_angle_deg > options.max_direction_disagreement_deg) {
+        ++scale.pairs_disagreeing;
+        continue;
+      }
       scale.pairs.push_back(*m);
       ratios.push_back(m->ratio);
     }
@@ -302,7 +307,13 @@ CheckResult checkDepthScale(const std::vector<CheckFrame>& frames, const CameraO
       scale.not_judged = "only " + std::to_string(ratios.size()) + " of " + std::to_string(scale.pairs_tried) +
                          " frame pairs could be measured (plausibility.min_pairs = " +
                          std::to_string(options.min_pairs) +
-                         "; too little camera motion against the ground truth, or too few matched features with depth)";
+                         "; too little camera motion against the ground truth, or too few matched features with depth" +
+                         (scale.pairs_disagreeing > 0
+                              ? "; " + std::to_string(scale.pairs_disagreeing) +
+                                    " pairs were measured but left out: their PnP and essential-matrix motions disagreed, "
+                                    "people walking through?"
+                              : std::string()) +
+                         ")";
     } else {
       scale.ratio = median(ratios);
       std::vector<double> deviations;

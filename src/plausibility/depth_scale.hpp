@@ -19,7 +19,10 @@
 // is how many times too large the depth readings are. The median over the pairs is the estimate,
 // its median absolute deviation the spread. The depth-independent two-view geometry (essential
 // matrix of the same matches) gives the translation direction, which is compared with PnP's as a
-// cross-check of the matches (reported, not judged: it cannot see the scale either).
+// cross-check of the matches: it cannot see the scale either, but a pair whose two directions
+// disagree (plausibility.max_direction_disagreement_deg) holds two motions, e.g. walkers filling
+// the view, and is left out. (The ground truth's direction cannot serve: Bonn's is a marker body's,
+// in axes turned 150-160 degrees from the camera's.)
 //
 // Without ground truth only the depth range is judged (median valid reading within
 // plausibility.min/max_median_depth_m), which catches gross errors only: fr1_xyz read with
@@ -65,15 +68,20 @@ struct PairMeasurement {
   double reference_m = 0;  // ground-truth distance between the camera centres
   double depth_units = 0;  // the same distance from PnP, in the depth image's unit
   double ratio = 0;        // depth_units / reference_m
-  double direction_angle_deg = -1;  // PnP vs essential-matrix translation direction (-1: none)
+  // PnP vs essential-matrix translation direction (-1: no essential matrix). Both come from the
+  // pair's matches, and a wrong depth factor scales the PnP motion without turning it: a large
+  // angle means the two estimators found different motions in the matches (people walking
+  // through), and the pair is left out (plausibility.max_direction_disagreement_deg).
+  double direction_angle_deg = -1;
 };
 
 struct ScaleEstimate {
   bool judged = false;
   double ratio = 1;   // median of the pairs' ratios: depth readings are this many times too large
   double spread = 0;  // median |ratio_i - ratio| / ratio
-  std::vector<PairMeasurement> pairs;
+  std::vector<PairMeasurement> pairs;  // the pairs counted
   int pairs_tried = 0;
+  int pairs_disagreeing = 0;  // measured, but left out: direction_angle_deg above the limit
   std::string not_judged;  // why not, when !judged
 };
 

@@ -10,6 +10,7 @@ void PlausibilityOptions::validate() const {
   requireInRange(s, "max_pairs", max_pairs, 1, 1000);
   requireInRange(s, "min_pairs", min_pairs, 1, max_pairs);
   requireInRange(s, "max_spread", max_spread, 0.0, 1.0);
+  requireInRange(s, "max_direction_disagreement_deg", max_direction_disagreement_deg, 0.0, 180.0);
   requireInRange(s, "max_scale_error", max_scale_error, 1.01, 100.0);
   requireInRange(s, "warn_scale_error", warn_scale_error, 1.0, max_scale_error);
   requireInRange(s, "min_median_depth_m", min_median_depth_m, 0.0, 1000.0);

@@ -21,6 +21,12 @@ struct PlausibilityOptions {
   int min_pairs = 3;           // fewer measured pairs: the scale is not judged
   // Per-pair ratios may spread (median absolute deviation / median) up to this; more: not judged.
   double max_spread = 0.25;
+  // A pair counts only when its PnP and essential-matrix directions of motion agree within this
+  // (degrees); a pair without an essential matrix counts. The depth factor scales the PnP motion
+  // but cannot turn it, so this leaves out pairs whose matches hold two motions (walkers filling
+  // the view: the Bonn crowd clip had its 3 pairs 26-54 degrees apart and read 0.74x with the
+  // right factor; static TUM pairs: 1-15 degrees).
+  double max_direction_disagreement_deg = 20.0;
   double max_scale_error = 1.5;   // measured ratio above this or below 1/this: an error
   double warn_scale_error = 1.15; // ... above this (below 1/this): a warning
   // Depth range of an indoor RGB-D camera: the median valid reading of the first frames outside
@@ -32,7 +38,8 @@ struct PlausibilityOptions {
   template <class V> void fields(V& v) {
     v("enabled", enabled); v("window_s", window_s); v("max_window_s", max_window_s);
     v("min_baseline_m", min_baseline_m); v("max_pairs", max_pairs); v("min_pairs", min_pairs);
-    v("max_spread", max_spread); v("max_scale_error", max_scale_error); v("warn_scale_error", warn_scale_error);
+    v("max_spread", max_spread); v("max_direction_disagreement_deg", max_direction_disagreement_deg);
+    v("max_scale_error", max_scale_error); v("warn_scale_error", warn_scale_error);
     v("min_median_depth_m", min_median_depth_m); v("max_median_depth_m", max_median_depth_m);
   }
   void validate() const;
