@@ -262,6 +262,11 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   }
   stats.timestamp = timestamp;
   if ((outcome.tracked || outcome.predicted) && !tracker_.records().empty()) stats.map = tracker_.records().back().map_id;
+  for (uint64_t id : outcome.backfilled)
+    if (id < frames_.size()) {  // frames_[i] is frame i's
+      frames_[id].backfilled = true;
+      frames_[id].map = stats.map;
+    }
 
   if (outcome.new_keyframe != nullptr) {
     stats.keyframe = true;
@@ -567,7 +572,7 @@ nlohmann::json SlamSystem::statistics() const {
                          {"timestamp", f.timestamp}, {"map", f.map}, {"new_map", f.new_map},
                          {"features_with_depth", f.features_with_depth},
                          {"static_with_depth", f.static_with_depth},
-                         {"weak", f.weak}, {"predicted", f.predicted}});
+                         {"weak", f.weak}, {"predicted", f.predicted}, {"backfilled", f.backfilled}});
     if (f.reloc_candidates >= 0)
       per_frame.back()["relocalisation"] = {{"candidates", f.reloc_candidates}, {"best_matches", f.reloc_matches},
                                             {"best_pnp_inliers", f.reloc_pnp_inliers},
@@ -590,6 +595,7 @@ nlohmann::json SlamSystem::statistics() const {
                    {"bridge_disagreements_refused", tracker_.bridgeDisagreements()},
                    {"weak_poses", tracker_.weakPoses()},
                    {"predicted_poses", tracker_.predictedPoses()},
+                   {"backfilled_poses", tracker_.backfilledPoses()},
                    {"keyframes", map_.keyframeCount()},
                    {"keyframes_created", map_.allKeyframes().size()},
                    {"map_points", map_.pointCount()}};

@@ -94,6 +94,7 @@ struct FrameStats {
   bool new_map = false;       // the frame started a map of the atlas
   bool weak = false;          // tracked with few inliers that agreed with the motion prediction
   bool predicted = false;     // not tracked: the motion prediction is its pose (tracking.predict_through_loss_s)
+  bool backfilled = false;    // not tracked then: a later frame's tracking gave it a pose (tracking.backfill_max_s)
   // Relocalisation attempt on this frame (lost): candidates tried, best descriptor matches, PnP
   // inliers, pose inliers (-1: not attempted).
   int reloc_candidates = -1, reloc_matches = -1, reloc_pnp_inliers = -1, reloc_inliers = -1;

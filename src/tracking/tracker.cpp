@@ -210,10 +210,12 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
       records_.push_back({frame.id, frame.timestamp, reference_keyframe_, T_c_r, active_map_});
       ++predicted_poses_;
       outcome.predicted = true;
+      unposed_.clear();  // the frames before have a pose
       return outcome;
     }
     ++lost_frames_;
     records_.push_back({frame.id, frame.timestamp, nullptr, SE3(), -1});
+    keepUnposed(frame);
     return outcome;
   }
 
@@ -260,7 +262,80 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   // Visual-odometry matches only serve the next frame's motion-model search.
   last_frame_ = frame;
   pushHistory(frame, reference_keyframe_, last_T_c_r_);
+  backfill(frame, outcome);
   return outcome;
+}
+
+void Tracker::keepUnposed(const map::Frame& frame) {
+  if (options_.tracking.backfill_max_s <= 0) return;
+  map::Frame kept = frame;
+  kept.depth = cv::Mat();  // the features hold their depth; the image may be the caller's buffer
+  kept.dynamic_mask = cv::Mat();
+  kept.clearMatches();
+  kept.has_pose = false;
+  if (!unposed_.empty() && unposed_.back().timestamp >= kept.timestamp) unposed_.clear();
+  unposed_.push_back(std::move(kept));
+}
+
+void Tracker::backfill(const map::Frame& found, TrackOutcome& outcome) {
+  if (unposed_.empty()) return;
+  std::deque<map::Frame> frames;
+  frames.swap(unposed_);
+  const double max_s = options_.tracking.backfill_max_s;
+  map::Frame next = found;  // the frame after the one tracked next, with its pose and matches
+  // The motion backwards: the velocity the found frame was tracked with, then the chain's own.
+  std::optional<SE3> T_earlier_later;
+  double step_s = 0;
+  if (velocity_ && velocity_interval_s_ > 1e-6) {
+    T_earlier_later = velocity_->inverse();
+    step_s = velocity_interval_s_;
+  }
+  for (auto it = frames.rbegin(); it != frames.rend(); ++it) {
+    map::Frame& frame = *it;
+    if (found.timestamp - frame.timestamp > max_s || next.timestamp <= frame.timestamp) break;
+    const double dt = next.timestamp - frame.timestamp;
+    const SE3 predicted = T_earlier_later ? SE3::exp(T_earlier_later->log() * (dt / step_s)) * next.T_c_w : next.T_c_w;
+    const std::vector<matching::ProjectionCandidate> candidates = motionCandidates(next);
+    frame.T_c_w = predicted;
+    int matches = 0;
+    for (double widen : {1.0, 2.0, 4.0}) {
+      frame.clearMatches();
+      std::vector<matching::ProjectionCandidate> window = candidates;
+      for (auto& c : window) c.radius *= widen;
+      matches = matching::searchByProjection(frame, camera_, window, matcher_options_);
+      if (matches >= kMinMotionMatches) break;
+    }
+    const int inliers = matches >= kMinWeakInliers ? optimizeFramePose(frame) : 0;
+    // The bars of tracking (no local map refines the pose here): a tracked pose's after stage 2,
+    // or a weak pose's, near the prediction.
+    const bool accepted = inliers >= kMinLocalMapInliersAfterStage2 ||
+                          (inliers >= kMinWeakInliers && nearPrediction(frame.T_c_w, predicted));
+    const double moved = (frame.T_c_w.inverse().translation() - next.T_c_w.inverse().translation()).norm();
+    if (!accepted || moved > options_.tracking.max_speed_m_s * std::max(dt, 1.0 / 30.0)) {
+      spdlog::debug("tracking: backfill from frame {} stops at frame {}: {} matches, {} inliers", found.id, frame.id,
+                    matches, inliers);
+      break;
+    }
+    frame.has_pose = true;
+    SE3 T_c_r;
+    {
+      std::shared_lock lock(map_.mutex());
+      T_c_r = frame.T_c_w * map::keyframeTcw(reference_keyframe_).inverse();
+    }
+    for (auto r = records_.rbegin(); r != records_.rend(); ++r)
+      if (r->frame_id == frame.id) {
+        *r = {frame.id, frame.timestamp, reference_keyframe_, T_c_r, active_map_};
+        break;
+      }
+    outcome.backfilled.push_back(frame.id);
+    ++backfilled_poses_;
+    T_earlier_later = frame.T_c_w * next.T_c_w.inverse();
+    step_s = std::max(dt, 1e-6);
+    next = std::move(frame);
+  }
+  if (!outcome.backfilled.empty())
+    spdlog::debug("tracking: frame {} gave {} of {} earlier frames without a pose one (backfilled)", found.id,
+                  outcome.backfilled.size(), frames.size());
 }
 
 void Tracker::pushHistory(const map::Frame& frame, const map::Keyframe* reference, const SE3& T_c_r) {
@@ -316,7 +391,10 @@ bool Tracker::initialize(map::Frame& frame, TrackOutcome& outcome, const char* r
                   "(atlas.min_initial_features {}, min_initial_cells {})", frame.id, reason,
                   support.features_with_depth, support.cells, options_.atlas.min_initial_features,
                   options_.atlas.min_initial_cells);
-    if (state_ == TrackingState::kNotInitialized) records_.push_back({frame.id, frame.timestamp, nullptr, SE3(), -1});
+    if (state_ == TrackingState::kNotInitialized) {
+      records_.push_back({frame.id, frame.timestamp, nullptr, SE3(), -1});
+      keepUnposed(frame);
+    }
     return false;
   }
   frame.T_c_w = SE3::identity();
@@ -350,40 +428,44 @@ bool Tracker::initialize(map::Frame& frame, TrackOutcome& outcome, const char* r
   outcome.tracked = true;
   outcome.new_keyframe = kf;
   outcome.new_map = true;
+  backfill(frame, outcome);
   return true;
 }
 
-bool Tracker::trackWithMotionModel(map::Frame& frame) {
-  const map::FeatureSet& last = *last_frame_.features;
+std::vector<matching::ProjectionCandidate> Tracker::motionCandidates(const map::Frame& from) const {
+  const map::FeatureSet& last = *from.features;
   const auto& pyramid = *last.pyramid;
   const int top_level = static_cast<int>(pyramid.scale.size()) - 1;
-
-  // Candidates: the previous frame's matched points, plus temporary points from its depth for
-  // close features without a match (they keep tracking alive where the map is thin).
+  // Candidates: the frame's matched points, plus temporary points from its depth for close
+  // features without a match (they keep tracking alive where the map is thin).
   std::vector<matching::ProjectionCandidate> candidates;
-  {
-    std::shared_lock lock(map_.mutex());
-    for (size_t i = 0; i < last.size(); ++i) {
-      if (!last_frame_.usable(i)) continue;
-      const map::FeatureMatch& m = last_frame_.matches[i];
-      matching::ProjectionCandidate c;
-      if (m.point != nullptr && !m.outlier && !m.point->bad) {
-        c.p_w = m.point->position;
-        c.point = m.point;
-      } else if (last.hasDepth(i) && last.depth[i] <= options_.tracking.close_depth) {
-        c.p_w = last_frame_.T_c_w.inverse() * camera_.backProject(last.uv[i], last.depth[i]);
-      } else {
-        continue;
-      }
-      const int level = last.level(i);
-      c.descriptor = last.descriptor(i);
-      c.min_level = std::max(0, level - 1);
-      c.max_level = std::min(top_level, level + 1);
-      c.radius = kMotionRadius * pyramid.scale[level];
-      c.angle = last.keypoints[i].angle;
-      candidates.push_back(c);
+  std::shared_lock lock(map_.mutex());
+  const SE3 T_w_c = from.T_c_w.inverse();
+  for (size_t i = 0; i < last.size(); ++i) {
+    if (!from.usable(i)) continue;
+    const map::FeatureMatch& m = from.matches[i];
+    matching::ProjectionCandidate c;
+    if (m.point != nullptr && !m.outlier && !m.point->bad) {
+      c.p_w = m.point->position;
+      c.point = m.point;
+    } else if (last.hasDepth(i) && last.depth[i] <= options_.tracking.close_depth) {
+      c.p_w = T_w_c * camera_.backProject(last.uv[i], last.depth[i]);
+    } else {
+      continue;
     }
+    const int level = last.level(i);
+    c.descriptor = last.descriptor(i);
+    c.min_level = std::max(0, level - 1);
+    c.max_level = std::min(top_level, level + 1);
+    c.radius = kMotionRadius * pyramid.scale[level];
+    c.angle = last.keypoints[i].angle;
+    candidates.push_back(c);
   }
+  return candidates;
+}
+
+bool Tracker::trackWithMotionModel(map::Frame& frame) {
+  const std::vector<matching::ProjectionCandidate> candidates = motionCandidates(last_frame_);
   // One hypothesis: guided search around the points' predicted projections, widened once, then
   // pose-only optimisation. Returns the map-point inliers (0 when too few matches).
   auto attempt = [&](map::Frame& f, const SE3& predicted_T_c_w) {

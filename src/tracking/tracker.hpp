@@ -44,6 +44,9 @@ struct TrackOutcome {
   bool new_map = false;                   // this frame started a map of the atlas
   bool weak = false;                      // tracked with few inliers that agreed with the motion prediction
   bool predicted = false;                 // not tracked, but given the motion prediction as its pose
+  // Earlier frames that had no pose and got one now, tracked backwards from this frame
+  // (tracking.backfill_max_s); their records were replaced.
+  std::vector<uint64_t> backfilled;
   std::optional<RelocalisationResult> relocalisation;  // when the relocaliser was asked
 };
 
@@ -70,6 +73,7 @@ class Tracker {
   int bridgeDisagreements() const { return bridge_disagreements_; }
   int weakPoses() const { return weak_poses_; }  // frames kept with few inliers near the prediction
   int predictedPoses() const { return predicted_poses_; }  // lost frames given the motion prediction
+  int backfilledPoses() const { return backfilled_poses_; }  // frames given a pose afterwards
   int mapsStarted() const { return maps_started_; }           // maps of the atlas this tracker started
   int initialisationsRefused() const { return initialisations_refused_; }  // frames too weak to start a map
   int activeMap() const { return active_map_; }               // -1 before the first map
@@ -92,6 +96,14 @@ class Tracker {
   // Forgets the motion and local map of the map tracking left (a new one starts).
   void resetForNewMap();
   bool trackWithMotionModel(map::Frame& frame);
+  // Projection candidates from a tracked frame: its matched map points and, for close features
+  // without one, visual-odometry points from its depth.
+  std::vector<matching::ProjectionCandidate> motionCandidates(const map::Frame& from) const;
+  // A frame with no pose: kept (features only) for backfill().
+  void keepUnposed(const map::Frame& frame);
+  // `found` was just tracked: the frames kept by keepUnposed() get poses, newest first, each
+  // tracked from the one after it; stops at the first that fails. Clears them.
+  void backfill(const map::Frame& found, TrackOutcome& outcome);
   bool trackReferenceKeyframe(map::Frame& frame);
   // The camera motion T_later_earlier over `seconds` at the current velocity (identity without one).
   SE3 motionOver(double seconds) const;
@@ -165,6 +177,7 @@ class Tracker {
     SE3 T_c_r;
   };
   std::deque<HistoryFrame> history_;
+  std::deque<map::Frame> unposed_;  // frames since the last one with a pose, none of them with one (oldest first)
   void pushHistory(const map::Frame& frame, const map::Keyframe* reference, const SE3& T_c_r);
   std::vector<FrameRecord> records_;
   int lost_frames_ = 0;
@@ -175,6 +188,7 @@ class Tracker {
   int maps_started_ = 0;
   int weak_poses_ = 0;
   int predicted_poses_ = 0;
+  int backfilled_poses_ = 0;
   int initialisations_refused_ = 0;
   int active_map_ = -1;         // the atlas map tracking works in (its live id after merges)
   Timestamp lost_since_ = 0;    // timestamp of the first lost frame of the current loss

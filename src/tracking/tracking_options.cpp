@@ -23,6 +23,7 @@ void TrackingOptions::validate() const {
   requireInRange(s, "crowded_view_share", crowded_view_share, 0.0, 1.0);
   requireInRange(s, "crowded_keyframe_spacing", crowded_keyframe_spacing, 0, max_frames_between_keyframes);
   requireInRange(s, "vo_check_min_map_inliers", vo_check_min_map_inliers, 0, 10000);
+  requireInRange(s, "backfill_max_s", backfill_max_s, 0.0, 60.0);
 }
 
 void RelocalisationOptions::validate() const {

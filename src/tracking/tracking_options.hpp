@@ -70,6 +70,12 @@ struct TrackingOptions {
   // the bar a tracked pose must clear after stage 2: a map-only pose that would be accepted on its
   // own is trusted to judge the VO points; below it every match is used, as without the check.
   int vo_check_min_map_inliers = 20;
+  // Frames that got no pose (lost, and no map could start yet: a crowd covering the view) at
+  // most this long before the frame that tracks again (in the old map or a new one) get a pose
+  // afterwards: tracked backwards from that frame, one frame after another, against the points
+  // each step matched (report: "backfilled"). The first frames of a run that waited for a map
+  // to start count too. 0 = off.
+  double backfill_max_s = 1.0;
 
   static constexpr const char* kSection = "tracking";
   template <class V> void fields(V& v) {
@@ -87,7 +93,7 @@ struct TrackingOptions {
     v("predict_through_loss_s", predict_through_loss_s); v("crowded_view_share", crowded_view_share);
     v("search_last_pose_when_lost", search_last_pose_when_lost);
     v("crowded_keyframe_spacing", crowded_keyframe_spacing);
-    v("vo_check_min_map_inliers", vo_check_min_map_inliers);
+    v("vo_check_min_map_inliers", vo_check_min_map_inliers); v("backfill_max_s", backfill_max_s);
   }
   void validate() const;
 };

@@ -165,6 +165,53 @@ TEST(SystemAtlas, StartHiddenByAMovingBoardDoesNotStarveTheMap) {
   EXPECT_LT(ate.translation_m.rmse, 0.01);
 }
 
+// The first frames have depth only on a strip of the view (a crowd close to the camera, a depth
+// camera still warming up): fewer static depth-backed features than a map needs
+// (atlas.min_initial_features), so no map can start there. Once one starts, those frames are
+// tracked backwards from it (tracking.backfill_max_s) and get accurate poses; without that they
+// have none.
+void firstFramesWithoutAMapStartAreBackfilled(bool backfill) {
+  constexpr size_t kWithoutStart = 9, kFrames = 60;
+  SystemOptions options = test::syntheticSystemOptions();
+  if (!backfill) options.tracking.backfill_max_s = 0;
+  const sim::SyntheticScene scene(sim::SceneOptions{}, options.camera);
+  const Trajectory path = sim::sweepPath(kFrames, options.camera.fps);
+  const AtlasRun run = runAtlas(
+      scene, path, options,
+      [&](size_t i, sim::RenderedFrame& f) {
+        if (i >= kWithoutStart) return;
+        f.depth(cv::Rect(0, 0, f.depth.cols * 3 / 4, f.depth.rows)).setTo(0.0f);
+      },
+      [](size_t) { return false; });
+  const nlohmann::json& counts = run.statistics["counts"];
+  const eval::AteResult ate = eval::computeAte(path, run.main_map);
+  Trajectory first;
+  for (const StampedPose& p : run.main_map)
+    if (p.timestamp < path[kWithoutStart].timestamp) first.push_back(p);
+  std::printf("backfill %s: %zu of %zu frames in the main map, %zu of the first %zu, backfilled %d, ATE %.2f mm\n",
+              backfill ? "on" : "off", run.main_map.size(), kFrames, first.size(), kWithoutStart,
+              counts["backfilled_poses"].get<int>(), 1000 * ate.translation_m.rmse);
+  EXPECT_GE(run.statistics["atlas"]["initialisations_refused"].get<int>(), static_cast<int>(kWithoutStart))
+      << "the strip alone must not start a map";
+  for (size_t i = 0; i < kWithoutStart; ++i) EXPECT_FALSE(run.tracked[i]) << "frame " << i;
+  if (!backfill) {
+    EXPECT_TRUE(first.empty());
+    EXPECT_EQ(counts["backfilled_poses"].get<int>(), 0);
+    return;
+  }
+  EXPECT_EQ(first.size(), kWithoutStart);
+  EXPECT_EQ(counts["backfilled_poses"].get<int>(), static_cast<int>(kWithoutStart));
+  EXPECT_EQ(run.main_map.size(), kFrames);
+  const eval::AteResult first_ate = eval::computeAte(path, first);
+  std::printf("backfilled frames alone: ATE %.2f mm\n", 1000 * first_ate.translation_m.rmse);
+  EXPECT_LT(ate.translation_m.rmse, 0.005);
+}
+
+TEST(SystemAtlas, FirstFramesWithoutAMapStartAreBackfilled) { firstFramesWithoutAMapStartAreBackfilled(true); }
+TEST(SystemAtlas, FirstFramesWithoutAMapStartHaveNoPoseWithoutBackfill) {
+  firstFramesWithoutAMapStartAreBackfilled(false);
+}
+
 // Sudden jumps (frames withheld) at several places of the second lap: tracking resumes within a
 // few frames after each, and by the end every frame is in one world.
 TEST(SystemAtlas, JumpsAtSeveralPlacesAreRecoveredAndEndInOneMap) {
