@@ -10,6 +10,7 @@ void SemanticOptions::validate() const {
   for (int c : dynamic_classes) requireInRange(s, "dynamic_classes", c, 0, 255);
   requireInRange(s, "threads", threads, 1, 64);
   requireInRange(s, "realtime_max_rate_hz", realtime_max_rate_hz, 0.0, 1000.0);
+  requireInRange(s, "realtime_mask_wait_ms", realtime_mask_wait_ms, 0.0, 1000.0);
 }
 
 }  // namespace desslam

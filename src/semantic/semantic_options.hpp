@@ -42,6 +42,11 @@ struct SemanticOptions {
   // On 2 cores an unthrottled network takes a whole core and starves mapping; masks between are
   // carried forward along optical flow.
   double realtime_max_rate_hz = 10.0;
+  // Real-time mode: a frame the network is segmenting (it starts on a frame as it arrives, while
+  // tracking extracts features) waits up to this long for its own mask instead of taking the
+  // previous one carried forward, as far as the frame period leaves time after the previous
+  // frame's processing (tracking keeps the sensor's rate). 0: never waits.
+  double realtime_mask_wait_ms = 15.0;
   // A keyframe made while the mask was carried forward (real time, emulated latency) gets its own
   // frame's mask before local mapping uses it (segmented for it when the stream skipped that
   // frame): the features in it leave the keyframe, and the points only it held leave the map.
@@ -56,7 +61,7 @@ struct SemanticOptions {
   template <class V> void fields(V& v) {
     v("segmenter", segmenter); v("backend", backend); v("model_path", model_path); v("model_sha256", model_sha256);
     v("mask_dir", mask_dir); v("dynamic_classes", dynamic_classes); v("threads", threads);
-    v("realtime_max_rate_hz", realtime_max_rate_hz); v("keyframe_exact_mask", keyframe_exact_mask);
+    v("realtime_max_rate_hz", realtime_max_rate_hz); v("realtime_mask_wait_ms", realtime_mask_wait_ms); v("keyframe_exact_mask", keyframe_exact_mask);
     v("own_mask_when_lost", own_mask_when_lost);
   }
   void validate() const;

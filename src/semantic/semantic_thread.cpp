@@ -38,10 +38,16 @@ void SemanticThread::submit(std::uint64_t frame_id, std::shared_ptr<const cv::Ma
     dropped_ += pending_.size();
     pending_.clear();
   }
+  const auto now = std::chrono::steady_clock::now();
+  if (any_submitted_) {
+    const double interval_s = std::chrono::duration<double>(now - last_submit_time_).count();
+    submit_interval_s_ = submit_interval_s_ <= 0 ? interval_s : 0.9 * submit_interval_s_ + 0.1 * interval_s;
+  }
+  last_submit_time_ = now;
   any_submitted_ = true;
   last_submitted_id_ = frame_id;
   in_flight_.insert(frame_id);
-  pending_.push_back(Job{frame_id, std::move(bgr), std::move(frame_name)});
+  pending_.push_back(Job{frame_id, std::move(bgr), std::move(frame_name), now});
   job_available_.notify_one();
   // Wakes waitFor() callers: on a frame just dropped (returns nullptr), or on this one.
   result_ready_.notify_all();
@@ -63,6 +69,13 @@ std::shared_ptr<const Segmentation> SemanticThread::waitFor(std::uint64_t frame_
   lock.unlock();
   if (found.error) std::rethrow_exception(found.error);
   return found.result;
+}
+
+bool SemanticThread::waitUntilFinished(std::uint64_t frame_id, std::chrono::steady_clock::duration timeout) {
+  std::unique_lock lock(mutex_);
+  return result_ready_.wait_for(lock, timeout, [&] {
+    return stopping_ || finished_.count(frame_id) > 0 || in_flight_.count(frame_id) == 0 || resting_;
+  }) && finished_.count(frame_id) > 0;
 }
 
 std::shared_ptr<const Segmentation> SemanticThread::latest(std::uint64_t frame_id,
@@ -179,8 +192,24 @@ void SemanticThread::run() {
     Job job;
     {
       std::unique_lock lock(mutex_);
-      job_available_.wait(lock, [&] { return stopping_ || !pending_.empty() || !priority_jobs_.empty(); });
-      if (stopping_) return;
+      const bool rate_limited = mode_ == SemanticMode::kRealtime && realtime_max_rate_hz_ > 0;
+      // A frame that waited through a rest was most likely tracked already with an older mask:
+      // the next one, segmented as it arrives, can still be waited for (see the header).
+      // Measured from the end of the rest, not from now: however late the worker wakes (a busy
+      // CPU), a frame submitted after the rest is never stale.
+      const auto stale = [&](const Job& j) {
+        return rate_limited && submit_interval_s_ > 0 &&
+               std::chrono::duration<double>(rest_ended_ - j.submitted).count() > 0.25 * submit_interval_s_;
+      };
+      for (;;) {
+        job_available_.wait(lock, [&] { return stopping_ || !pending_.empty() || !priority_jobs_.empty(); });
+        if (stopping_) return;
+        if (!priority_jobs_.empty() || !stale(pending_.front())) break;
+        for (const Job& j : pending_) in_flight_.erase(j.frame_id);
+        dropped_ += pending_.size();
+        pending_.clear();
+        result_ready_.notify_all();
+      }
       std::deque<Job>& queue = priority_jobs_.empty() ? pending_ : priority_jobs_;
       job = std::move(queue.front());
       queue.pop_front();
@@ -213,8 +242,12 @@ void SemanticThread::run() {
       const auto next = started + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                       std::chrono::duration<double>(1.0 / realtime_max_rate_hz_));
       std::unique_lock lock(mutex_);
+      resting_ = true;
+      result_ready_.notify_all();  // a frame waited for will not start before the rest is over
       // An own-mask request does not wait for the rest (local mapping or tracking waits for it).
       job_available_.wait_until(lock, next, [&] { return stopping_ || !priority_jobs_.empty(); });
+      resting_ = false;
+      rest_ended_ = std::chrono::steady_clock::now();
     }
   }
 }

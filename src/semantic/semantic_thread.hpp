@@ -25,6 +25,7 @@
 // limit; its result stays until waitForOwnMask() takes it.
 #pragma once
 
+#include <chrono>
 #include <condition_variable>
 #include <cstddef>
 #include <cstdint>
@@ -70,6 +71,11 @@ class SemanticThread {
   // If the segmenter threw for this frame, rethrows that exception here.
   std::shared_ptr<const Segmentation> waitFor(std::uint64_t frame_id);
 
+  // Real time: waits at most `timeout` for frame_id's result while the network works on it or is
+  // about to start it (not while it rests for the rate limit); returns whether it is finished.
+  // Take it with latest(). Returns false at once for a frame dropped or never going to start.
+  bool waitUntilFinished(std::uint64_t frame_id, std::chrono::steady_clock::duration timeout);
+
   // Never waits: the newest finished result with id <= frame_id (nullptr if none yet), its id in
   // *result_frame_id (if not null). Older results are erased. Rethrows a segmenter exception of a
   // frame with id <= frame_id (once).
@@ -99,6 +105,7 @@ class SemanticThread {
     std::uint64_t frame_id;
     std::shared_ptr<const cv::Mat> bgr;
     std::string frame_name;
+    std::chrono::steady_clock::time_point submitted{};
   };
   struct Finished {
     std::shared_ptr<const Segmentation> result;
@@ -125,6 +132,14 @@ class SemanticThread {
   std::set<std::uint64_t> in_flight_;  // submitted, not finished and not dropped
   bool any_submitted_ = false;
   std::uint64_t last_submitted_id_ = 0;
+  // Real time, rate-limited: the worker rests between segmentations. After a rest it starts only
+  // on a frame submitted at most a quarter of the usual interval between submissions before the
+  // rest ended (its tracking may still wait for it, see waitUntilFinished); an older one was
+  // tracked with a carried mask already and is dropped for the next.
+  bool resting_ = false;
+  std::chrono::steady_clock::time_point rest_ended_{};
+  std::chrono::steady_clock::time_point last_submit_time_{};
+  double submit_interval_s_ = 0;  // running mean of the time between submissions
   bool stopping_ = false;
   std::size_t segmented_ = 0;
   std::size_t dropped_ = 0;

@@ -125,6 +125,14 @@ cv::Mat SlamSystem::maskFor(uint64_t frame_id, const std::shared_ptr<const cv::M
     result = semantic_->waitForOwnMask(frame_id);
     stats.own_mask_waited = true;
   } else if (settings_.realtime) {
+    // The frame period minus what the previous frame took besides waiting for its mask, and
+    // minus how far behind the sensor this frame already is.
+    const double budget_ms = std::min(options_.semantic.realtime_mask_wait_ms,
+                                      1000.0 / options_.camera.fps -
+                                          (previous_processing_ms_ + kRealtimeMargin_ms + realtime_behind_ms_));
+    if (budget_ms > 0)
+      semantic_->waitUntilFinished(frame_id, std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                 std::chrono::duration<double, std::milli>(budget_ms)));
     result = semantic_->latest(frame_id, &result_id);
   } else if (settings_.mask_latency_frames > 0) {
     const uint64_t latency = static_cast<uint64_t>(settings_.mask_latency_frames);
@@ -182,6 +190,13 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   const auto start = std::chrono::steady_clock::now();
   FrameStats stats;
   const uint64_t frame_id = next_frame_id_++;
+  if (settings_.realtime) {
+    // How far behind the sensor this frame starts (the first frame sets the clock).
+    if (frame_id == 0) realtime_origin_ = {start, timestamp};
+    const double behind_ms =
+        1000.0 * (std::chrono::duration<double>(start - realtime_origin_.wall).count() - (timestamp - realtime_origin_.timestamp));
+    realtime_behind_ms_ = std::max(0.0, behind_ms);
+  }
   // Segmentation of this frame runs in the semantic thread while ORB features are extracted here.
   // Messages to other threads own their pixels (a copy): cv::Mat's reference count is invisible to
   // ThreadSanitizer, and the caller may reuse its buffers.
@@ -297,6 +312,7 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
     writeFileAtomicallyVia(path, "debug image", [&](const std::filesystem::path& tmp) { return cv::imwrite(tmp.string(), view); });
   }
   stats.total_ms = millisecondsSince(start);
+  previous_processing_ms_ = stats.total_ms - stats.mask_wait_ms;
   frames_.push_back(stats);
   rethrowWorkerFailure();
 }

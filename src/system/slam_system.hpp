@@ -229,6 +229,15 @@ class SlamSystem {
   KeyframeMaskStats keyframe_masks_;
 
   std::vector<FrameStats> frames_;
+  // Real time: the previous frame's processing time without its mask wait, and the time a frame
+  // keeps free of the mask wait (the frame period minus both bounds the wait).
+  double previous_processing_ms_ = 0;
+  static constexpr double kRealtimeMargin_ms = 3.0;
+  struct {
+    std::chrono::steady_clock::time_point wall{};
+    Timestamp timestamp = 0;
+  } realtime_origin_;
+  double realtime_behind_ms_ = 0;
   uint64_t next_frame_id_ = 0;
   bool finished_ = false;
   bool failure_reported_ = false;  // a worker's failure has been thrown to the caller

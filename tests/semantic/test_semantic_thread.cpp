@@ -320,6 +320,50 @@ TEST(SemanticThread, NullSegmenterIsRejected) {
 
 // Real time with a rate limit: however fast frames come and the network runs, segmentations
 // start at most realtime_max_rate_hz per second (an upper bound: a slow machine only does fewer).
+// Real time: tracking may wait a little for the mask of a frame the network is segmenting.
+TEST(SemanticThread, RealtimeWaitUntilFinishedGetsTheFrameBeingSegmented) {
+  SemanticThread thread(std::make_unique<FakeSegmenter>(30ms), SemanticMode::kRealtime);
+  thread.submit(0, frameImage(0), frameName(0));
+  ASSERT_TRUE(thread.waitUntilFinished(0, 10s));
+  std::uint64_t got = 99;
+  const auto result = thread.latest(0, &got);
+  ASSERT_NE(result, nullptr);
+  EXPECT_EQ(got, 0u);
+  EXPECT_EQ(labelOf(*result), 0);
+}
+
+TEST(SemanticThread, RealtimeWaitUntilFinishedGivesUpAtTheTimeout) {
+  Gate gate;
+  SemanticThread thread(std::make_unique<FakeSegmenter>(0ms, &gate), SemanticMode::kRealtime);
+  thread.submit(0, frameImage(0), frameName(0));
+  EXPECT_FALSE(thread.waitUntilFinished(0, 20ms));  // still held by the gate
+  gate.open();
+  EXPECT_TRUE(thread.waitUntilFinished(0, 10s));
+}
+
+TEST(SemanticThread, RealtimeWaitUntilFinishedReturnsAtOnceForADroppedFrame) {
+  Gate gate;
+  SemanticThread thread(std::make_unique<FakeSegmenter>(0ms, &gate), SemanticMode::kRealtime);
+  thread.submit(0, frameImage(0), frameName(0));  // the network holds this one
+  thread.submit(1, frameImage(1), frameName(1));
+  thread.submit(2, frameImage(2), frameName(2));  // drops 1
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_FALSE(thread.waitUntilFinished(1, 30s));
+  EXPECT_LT(std::chrono::steady_clock::now() - start, 20s) << "waited for a dropped frame";
+  gate.open();
+}
+
+TEST(SemanticThread, RealtimeWaitUntilFinishedDoesNotWaitThroughARest) {
+  // One segmentation a minute: after frame 0 the network rests, so frame 1 will not start soon.
+  SemanticThread thread(std::make_unique<FakeSegmenter>(0ms), SemanticMode::kRealtime, 1.0 / 60.0);
+  thread.submit(0, frameImage(0), frameName(0));
+  ASSERT_TRUE(thread.waitUntilFinished(0, 10s));
+  thread.submit(1, frameImage(1), frameName(1));
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_FALSE(thread.waitUntilFinished(1, 30s));
+  EXPECT_LT(std::chrono::steady_clock::now() - start, 20s) << "waited through the rate limit's rest";
+}
+
 TEST(SemanticThread, RealtimeRateLimitBoundsSegmentations) {
   constexpr double kRateHz = 20.0;
   SemanticThread thread(std::make_unique<FakeSegmenter>(0ms), SemanticMode::kRealtime, kRateHz);
