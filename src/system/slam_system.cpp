@@ -282,6 +282,11 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
       frames_[id].backfilled = true;
       frames_[id].map = stats.map;
     }
+  for (uint64_t id : outcome.interpolated)
+    if (id < frames_.size()) {
+      frames_[id].interpolated = true;
+      frames_[id].map = stats.map;
+    }
 
   if (outcome.new_keyframe != nullptr) {
     stats.keyframe = true;
@@ -588,7 +593,8 @@ nlohmann::json SlamSystem::statistics() const {
                          {"timestamp", f.timestamp}, {"map", f.map}, {"new_map", f.new_map},
                          {"features_with_depth", f.features_with_depth},
                          {"static_with_depth", f.static_with_depth},
-                         {"weak", f.weak}, {"predicted", f.predicted}, {"backfilled", f.backfilled}});
+                         {"weak", f.weak}, {"predicted", f.predicted}, {"backfilled", f.backfilled},
+                         {"interpolated", f.interpolated}});
     if (f.reloc_candidates >= 0)
       per_frame.back()["relocalisation"] = {{"candidates", f.reloc_candidates}, {"best_matches", f.reloc_matches},
                                             {"best_pnp_inliers", f.reloc_pnp_inliers},
@@ -612,6 +618,7 @@ nlohmann::json SlamSystem::statistics() const {
                    {"weak_poses", tracker_.weakPoses()},
                    {"predicted_poses", tracker_.predictedPoses()},
                    {"backfilled_poses", tracker_.backfilledPoses()},
+                   {"interpolated_poses", tracker_.interpolatedPoses()},
                    {"keyframes", map_.keyframeCount()},
                    {"keyframes_created", map_.allKeyframes().size()},
                    {"map_points", map_.pointCount()}};

@@ -95,6 +95,7 @@ struct FrameStats {
   bool weak = false;          // tracked with few inliers that agreed with the motion prediction
   bool predicted = false;     // not tracked: the motion prediction is its pose (tracking.predict_through_loss_s)
   bool backfilled = false;    // not tracked then: a later frame's tracking gave it a pose (tracking.backfill_max_s)
+  bool interpolated = false;  // not tracked then: its pose lies between the frames tracked before and after
   // Relocalisation attempt on this frame (lost): candidates tried, best descriptor matches, PnP
   // inliers, pose inliers (-1: not attempted).
   int reloc_candidates = -1, reloc_matches = -1, reloc_pnp_inliers = -1, reloc_inliers = -1;

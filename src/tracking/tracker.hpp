@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/camera.hpp"
+#include "core/trajectory.hpp"
 #include "map/frame.hpp"
 #include "map/map.hpp"
 #include "matching/matcher.hpp"
@@ -44,9 +45,11 @@ struct TrackOutcome {
   bool new_map = false;                   // this frame started a map of the atlas
   bool weak = false;                      // tracked with few inliers that agreed with the motion prediction
   bool predicted = false;                 // not tracked, but given the motion prediction as its pose
-  // Earlier frames that had no pose and got one now, tracked backwards from this frame
-  // (tracking.backfill_max_s); their records were replaced.
+  // Earlier frames (lost, or predicted) whose records were replaced now: tracked backwards from
+  // this frame (tracking.backfill_max_s), or interpolated between the last frame tracked before
+  // the loss and them (found again in the same map).
   std::vector<uint64_t> backfilled;
+  std::vector<uint64_t> interpolated;
   std::optional<RelocalisationResult> relocalisation;  // when the relocaliser was asked
 };
 
@@ -73,7 +76,8 @@ class Tracker {
   int bridgeDisagreements() const { return bridge_disagreements_; }
   int weakPoses() const { return weak_poses_; }  // frames kept with few inliers near the prediction
   int predictedPoses() const { return predicted_poses_; }  // lost frames given the motion prediction
-  int backfilledPoses() const { return backfilled_poses_; }  // frames given a pose afterwards
+  int backfilledPoses() const { return backfilled_poses_; }  // frames tracked backwards afterwards
+  int interpolatedPoses() const { return interpolated_poses_; }  // frames interpolated afterwards
   int mapsStarted() const { return maps_started_; }           // maps of the atlas this tracker started
   int initialisationsRefused() const { return initialisations_refused_; }  // frames too weak to start a map
   int activeMap() const { return active_map_; }               // -1 before the first map
@@ -99,11 +103,13 @@ class Tracker {
   // Projection candidates from a tracked frame: its matched map points and, for close features
   // without one, visual-odometry points from its depth.
   std::vector<matching::ProjectionCandidate> motionCandidates(const map::Frame& from) const;
-  // A frame with no pose: kept (features only) for backfill().
-  void keepUnposed(const map::Frame& frame);
-  // `found` was just tracked: the frames kept by keepUnposed() get poses, newest first, each
-  // tracked from the one after it; stops at the first that fails. Clears them.
-  void backfill(const map::Frame& found, TrackOutcome& outcome);
+  // A frame with no pose or a predicted one: kept (features only) for settle().
+  void keepUnsettled(const map::Frame& frame, bool predicted);
+  // `found` was just tracked: the frames kept by keepUnsettled() get poses, newest first, each
+  // tracked backwards from the one after it, until one fails (tracking.backfill_max_s); the rest
+  // that lie after before_loss (the last tracked frame, given when `found` is in its map) are
+  // interpolated between it and the oldest one settled. Clears them.
+  void settle(const map::Frame& found, const std::optional<StampedPose>& before_loss, TrackOutcome& outcome);
   bool trackReferenceKeyframe(map::Frame& frame);
   // The camera motion T_later_earlier over `seconds` at the current velocity (identity without one).
   SE3 motionOver(double seconds) const;
@@ -177,7 +183,14 @@ class Tracker {
     SE3 T_c_r;
   };
   std::deque<HistoryFrame> history_;
-  std::deque<map::Frame> unposed_;  // frames since the last one with a pose, none of them with one (oldest first)
+  // Frames since the last tracked one (oldest first): without a pose, or with a predicted one
+  // (then the map it was predicted in).
+  struct UnsettledFrame {
+    map::Frame frame;
+    bool predicted = false;
+    int map_id = -1;
+  };
+  std::deque<UnsettledFrame> unsettled_;
   void pushHistory(const map::Frame& frame, const map::Keyframe* reference, const SE3& T_c_r);
   std::vector<FrameRecord> records_;
   int lost_frames_ = 0;
@@ -189,6 +202,7 @@ class Tracker {
   int weak_poses_ = 0;
   int predicted_poses_ = 0;
   int backfilled_poses_ = 0;
+  int interpolated_poses_ = 0;
   int initialisations_refused_ = 0;
   int active_map_ = -1;         // the atlas map tracking works in (its live id after merges)
   Timestamp lost_since_ = 0;    // timestamp of the first lost frame of the current loss

@@ -70,11 +70,12 @@ struct TrackingOptions {
   // the bar a tracked pose must clear after stage 2: a map-only pose that would be accepted on its
   // own is trusted to judge the VO points; below it every match is used, as without the check.
   int vo_check_min_map_inliers = 20;
-  // Frames that got no pose (lost, and no map could start yet: a crowd covering the view) at
-  // most this long before the frame that tracks again (in the old map or a new one) get a pose
-  // afterwards: tracked backwards from that frame, one frame after another, against the points
-  // each step matched (report: "backfilled"). The first frames of a run that waited for a map
-  // to start count too. 0 = off.
+  // The frames of a loss (no pose: no map could start yet, a crowd covering the view or the first
+  // frames of a run; or a predicted pose) at most this long before the frame that tracks again
+  // (in the old map or a new one) are tracked backwards from it, one frame after another, against
+  // the points each step matched (report: "backfilled"). Found again in the map of the last frame
+  // tracked before the loss, the rest between the two (up to twice this long) are interpolated
+  // between them (report: "interpolated"). 0 = neither.
   double backfill_max_s = 1.0;
 
   static constexpr const char* kSection = "tracking";

@@ -212,6 +212,61 @@ TEST(SystemAtlas, FirstFramesWithoutAMapStartHaveNoPoseWithoutBackfill) {
   firstFramesWithoutAMapStartAreBackfilled(false);
 }
 
+// The lens is covered (black, no depth) for 0.23 s while the camera doubles its speed: the frames
+// of the cover get the motion before it as their pose (tracking.predict_through_loss_s), which
+// falls behind. Once the camera is found again in the same map, they lie on the motion between
+// the last frame tracked before the cover and the first after it (interpolated).
+void coveredFramesAreSettledBetweenTheTrackedOnes(bool settle) {
+  constexpr size_t kCoverFirst = 40, kCoverLast = 46, kFrames = 90;
+  SystemOptions options = test::syntheticSystemOptions();
+  if (!settle) options.tracking.backfill_max_s = 0;
+  const sim::SyntheticScene scene(sim::SceneOptions{}, options.camera);
+  const Trajectory dense = sim::sweepPath(2 * kFrames, options.camera.fps);
+  Trajectory path;
+  for (size_t i = 0; i < kFrames; ++i) {
+    const size_t k = i < kCoverFirst ? i : kCoverFirst + 2 * (i - kCoverFirst);  // twice as fast from the cover on
+    path.push_back({dense[i].timestamp, dense[k].T_w_c});
+  }
+  const AtlasRun run = runAtlas(
+      scene, path, options,
+      [&](size_t i, sim::RenderedFrame& f) {
+        if (i < kCoverFirst || i > kCoverLast) return;
+        f.bgr.setTo(cv::Scalar::all(0));
+        f.depth.setTo(0.0f);
+      },
+      [](size_t) { return false; });
+  Trajectory covered;
+  for (const StampedPose& p : run.main_map)
+    if (p.timestamp >= path[kCoverFirst].timestamp && p.timestamp <= path[kCoverLast].timestamp) covered.push_back(p);
+  // The covered frames' error in the world of the whole run (aligned on every frame).
+  const eval::AteResult ate = eval::computeAte(path, run.main_map);
+  double worst_m = 0;
+  for (const StampedPose& p : covered)
+    for (size_t i = kCoverFirst; i <= kCoverLast; ++i)
+      if (path[i].timestamp == p.timestamp) {
+        const Vec3 aligned = ate.T_gt_est * p.T_w_c.translation();
+        worst_m = std::max(worst_m, (aligned - path[i].T_w_c.translation()).norm());
+      }
+  const nlohmann::json& counts = run.statistics["counts"];
+  std::printf("cover with settling %s: %zu of %zu covered frames in the main map, interpolated %d, worst %.1f mm, "
+              "ATE %.2f mm\n", settle ? "on" : "off", covered.size(), kCoverLast - kCoverFirst + 1,
+              counts["interpolated_poses"].get<int>(), 1000 * worst_m, 1000 * ate.translation_m.rmse);
+  for (size_t i = kCoverLast + 1; i < kCoverLast + 4; ++i) EXPECT_TRUE(run.tracked[i]) << "frame " << i;
+  EXPECT_EQ(run.main_map.size(), kFrames);
+  EXPECT_EQ(liveMaps(run.statistics), 1u);
+  for (size_t i = kCoverFirst; i <= kCoverLast; ++i) EXPECT_FALSE(run.tracked[i]) << "frame " << i;
+  if (settle) {
+    EXPECT_EQ(counts["interpolated_poses"].get<int>(), static_cast<int>(kCoverLast - kCoverFirst + 1));
+    EXPECT_LT(worst_m, 0.015);
+  } else {
+    EXPECT_EQ(counts["interpolated_poses"].get<int>(), 0);
+    EXPECT_GT(worst_m, 0.03) << "the prediction alone should fall behind the doubled speed";
+  }
+}
+
+TEST(SystemAtlas, CoveredFramesAreInterpolatedBetweenTheTrackedOnes) { coveredFramesAreSettledBetweenTheTrackedOnes(true); }
+TEST(SystemAtlas, CoveredFramesKeepThePredictionWithoutSettling) { coveredFramesAreSettledBetweenTheTrackedOnes(false); }
+
 // Sudden jumps (frames withheld) at several places of the second lap: tracking resumes within a
 // few frames after each, and by the end every frame is in one world.
 TEST(SystemAtlas, JumpsAtSeveralPlacesAreRecoveredAndEndInOneMap) {
