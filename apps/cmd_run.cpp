@@ -629,7 +629,7 @@ void registerRunCommand(CLI::App& app) {
                   "settings.skip_frames, per_frame[].input_index gives each processed frame's index");
   cmd->add_flag("--quiet,-q", args->quiet, "No progress line or summary");
   cmd->add_flag("--realtime", args->realtime,
-                "Feed frames at the sensor's rate; tracking never waits for segmentation");
+                "Feed frames at the sensor's rate; tracking waits for segmentation only within the frame period");
   cmd->add_option("--emulate-mask-latency", args->mask_latency,
                   "Offline: frame k uses the mask of the newest frame s <= k - N (s a multiple of "
                   "--emulate-mask-period), carried forward as in --realtime; with --deterministic, real time's "

@@ -6,7 +6,8 @@
 //              waitFor(k) blocks until frame k's result is ready (reproducible runs).
 //   kRealtime: submit() never blocks; a frame still waiting when a newer one arrives is dropped
 //              (the network always works on the newest frame); latest(k) never waits and hands
-//              back the newest finished result with id <= k, which tracking carries forward.
+//              back the newest finished result with id <= k, which tracking carries forward;
+//              waitUntilFinished(k, timeout) waits a bounded time for a frame being segmented.
 //
 // Lock discipline: one mutex (mutex_) guards the pending input, finished results, in-flight ids,
 // counters and the stop flag; three condition variables wait on it. join_mutex_ only serialises

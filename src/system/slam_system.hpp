@@ -5,8 +5,9 @@
 // semantic thread; local mapping, loop closing (with its global BA) and dense mapping in their
 // own threads. With `deterministic`, local mapping and loop closing run inline after each
 // keyframe and tracking waits for every mask, so two runs give identical trajectories. In
-// real-time mode tracking never waits for the network: a frame without a fresh mask uses the
-// newest one carried forward along optical flow.
+// real-time mode tracking waits for the network only within the frame period (a frame being
+// segmented, semantic.realtime_mask_wait_ms): a frame without a fresh mask uses the newest one
+// carried forward along optical flow.
 #pragma once
 
 #include <atomic>

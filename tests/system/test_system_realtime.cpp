@@ -1,9 +1,10 @@
-// Real-time mode (RunSettings::realtime, `desslam run --realtime`): tracking never waits for the
-// semantic thread. A person-sized box walks through the synthetic room, its true masks are read by
+// Real-time mode (RunSettings::realtime, `desslam run --realtime`): tracking waits for the
+// semantic thread only within a frame period. A person-sized box walks through the synthetic room, its true masks are read by
 // the mask_dir segmenter, and the frames come at the camera's rate while the network is held to
 // semantic.realtime_max_rate_hz, far below it: most frames are tracked with an older frame's mask
-// carried forward along the optical flow. Only a frame that follows one without a tracked pose
-// waits for its own mask (semantic.own_mask_when_lost).
+// carried forward along the optical flow. A frame the network is segmenting may wait a little for
+// its mask (semantic.realtime_mask_wait_ms); a frame that follows one without a tracked pose waits
+// for its own mask (semantic.own_mask_when_lost).
 //
 // Loose on purpose: which frames get which mask depends on the machine's load (the
 // ThreadSanitizer build runs it too, 5-15x slower); nothing here is a time bound.
