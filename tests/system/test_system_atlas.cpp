@@ -50,6 +50,16 @@ AtlasRun runAtlas(const sim::SyntheticScene& scene, const Trajectory& path, cons
   return run;
 }
 
+// runAtlas() edits: frames first..last are black with no depth (a covered lens).
+auto coveredLens(size_t first, size_t last) {
+  return [first, last](size_t i, sim::RenderedFrame& f) {
+    if (i < first || i > last) return;
+    f.bgr.setTo(cv::Scalar::all(0));
+    f.depth.setTo(0.0f);
+  };
+}
+bool noFrameWithheld(size_t) { return false; }
+
 size_t liveMaps(const nlohmann::json& statistics) {
   size_t live = 0;
   for (const auto& m : statistics["atlas"]["maps"]) live += m["live"].get<bool>() && m["frames"].get<size_t>() > 0;
@@ -81,14 +91,8 @@ void coveredCameraStartsASecondMapThatIsMergedBack(bool deterministic) {
     path.push_back({t, i >= 240 ? lap[i - 240].T_w_c
                                 : SE3(sim::lookRotation(yaw, pitch, 0.0), start)});
   }
-  const AtlasRun run = runAtlas(
-      scene, path, options,
-      [&](size_t i, sim::RenderedFrame& f) {
-        if (i < kCoverFirst || i > kCoverLast) return;
-        f.bgr.setTo(cv::Scalar::all(0));
-        f.depth.setTo(0.0f);
-      },
-      [](size_t) { return false; }, deterministic);
+  const AtlasRun run =
+      runAtlas(scene, path, options, coveredLens(kCoverFirst, kCoverLast), noFrameWithheld, deterministic);
   const nlohmann::json& atlas = run.statistics["atlas"];
   const eval::AteResult ate = eval::computeAte(path, run.main_map);
   std::printf("covered 1 s: %zu of %zu frames in the main map, maps started %d, merges %d, ATE %.2f mm\n%s\n",
@@ -149,7 +153,7 @@ TEST(SystemAtlas, StartHiddenByAMovingBoardDoesNotStarveTheMap) {
         board(cv::Rect(static_cast<int>(i) * 4, 0, f.bgr.cols, f.bgr.rows)).copyTo(f.bgr);
         f.depth.setTo(0.6f);
       },
-      [](size_t) { return false; });
+      noFrameWithheld);
   const eval::AteResult ate = eval::computeAte(path, run.main_map);
   size_t after_board = 0, during_board = 0;
   for (const StampedPose& p : run.main_map) {
@@ -182,7 +186,7 @@ void firstFramesWithoutAMapStartAreBackfilled(bool backfill) {
         if (i >= kWithoutStart) return;
         f.depth(cv::Rect(0, 0, f.depth.cols * 3 / 4, f.depth.rows)).setTo(0.0f);
       },
-      [](size_t) { return false; });
+      noFrameWithheld);
   const nlohmann::json& counts = run.statistics["counts"];
   const eval::AteResult ate = eval::computeAte(path, run.main_map);
   Trajectory first;
@@ -227,14 +231,7 @@ void coveredFramesAreSettledBetweenTheTrackedOnes(bool settle) {
     const size_t k = i < kCoverFirst ? i : kCoverFirst + 2 * (i - kCoverFirst);  // twice as fast from the cover on
     path.push_back({dense[i].timestamp, dense[k].T_w_c});
   }
-  const AtlasRun run = runAtlas(
-      scene, path, options,
-      [&](size_t i, sim::RenderedFrame& f) {
-        if (i < kCoverFirst || i > kCoverLast) return;
-        f.bgr.setTo(cv::Scalar::all(0));
-        f.depth.setTo(0.0f);
-      },
-      [](size_t) { return false; });
+  const AtlasRun run = runAtlas(scene, path, options, coveredLens(kCoverFirst, kCoverLast), noFrameWithheld);
   Trajectory covered;
   for (const StampedPose& p : run.main_map)
     if (p.timestamp >= path[kCoverFirst].timestamp && p.timestamp <= path[kCoverLast].timestamp) covered.push_back(p);
