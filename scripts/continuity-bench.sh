@@ -20,8 +20,9 @@
 # merged_into}, merges, main_map}; CameraTrajectory_all.txt (rows = frames with a pose in any map)
 # is the fallback for the tracked share when per_frame is missing.
 #   A frame "has a pose" when per_frame[k].map >= 0 (or, without `map`, per_frame[k].tracked).
-#   resume = processed frames after the gap (input_index > B) before the first one with a pose;
-#            'never' when no frame after the gap got one.
+#   resume = processed frames after the gap (input_index > B) before the first one with a pose
+#            at the time (tracked or predicted; not per_frame[k].backfilled, nor interpolated
+#            without a prediction: those got theirs afterwards); 'never' when none did.
 #   merged = every map with keyframes, except one, has merged_into set (yes / no / k/N runs).
 set -uo pipefail
 caller_pwd=$(pwd)
@@ -99,6 +100,13 @@ def has_pose(f):
     t = f.get("tracked") if isinstance(f, dict) else None
     return t if isinstance(t, bool) else None
 
+def posed_at_the_time(f):
+    # A pose settled afterwards (tracked backwards, or interpolated on a frame that had none) does
+    # not say that tracking had come back at that frame.
+    if not has_pose(f):
+        return False
+    return not (f.get("backfilled") is True or (f.get("interpolated") is True and f.get("predicted") is not True))
+
 def all_rows(run_dir):
     path = os.path.join(run_dir, "CameraTrajectory_all.txt")
     try:
@@ -141,7 +149,7 @@ def analyse(run_dir, gap):
         after = [k for k, f in enumerate(pf) if f["input_index"] > b]
         if after:
             k0 = after[0]
-            hit = [k for k in after if has_pose(pf[k])]
+            hit = [k for k in after if posed_at_the_time(pf[k])]
             res["resume"] = hit[0] - k0 if hit else "never"
     return res
 
