@@ -277,16 +277,16 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   }
   stats.timestamp = timestamp;
   if ((outcome.tracked || outcome.predicted) && !tracker_.records().empty()) stats.map = tracker_.records().back().map_id;
-  for (uint64_t id : outcome.backfilled)
-    if (id < frames_.size()) {  // frames_[i] is frame i's
-      frames_[id].backfilled = true;
-      frames_[id].map = stats.map;
-    }
-  for (uint64_t id : outcome.interpolated)
-    if (id < frames_.size()) {
-      frames_[id].interpolated = true;
-      frames_[id].map = stats.map;
-    }
+  // Earlier frames settled now (frames_[i] is frame i's): in this frame's map.
+  const auto settled = [&](const std::vector<uint64_t>& ids, bool FrameStats::*flag) {
+    for (uint64_t id : ids)
+      if (id < frames_.size()) {
+        frames_[id].*flag = true;
+        frames_[id].map = stats.map;
+      }
+  };
+  settled(outcome.backfilled, &FrameStats::backfilled);
+  settled(outcome.interpolated, &FrameStats::interpolated);
 
   if (outcome.new_keyframe != nullptr) {
     stats.keyframe = true;

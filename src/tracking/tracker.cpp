@@ -319,17 +319,8 @@ void Tracker::settle(const map::Frame& found, const std::optional<StampedPose>& 
     if (found.timestamp - frame.timestamp > max_s || next.timestamp <= frame.timestamp) break;
     const double dt = next.timestamp - frame.timestamp;
     const SE3 predicted = T_earlier_later ? SE3::exp(T_earlier_later->log() * (dt / step_s)) * next.T_c_w : next.T_c_w;
-    const std::vector<matching::ProjectionCandidate> candidates = motionCandidates(next);
-    frame.T_c_w = predicted;
-    int matches = 0;
-    for (double widen : {1.0, 2.0, 4.0}) {
-      frame.clearMatches();
-      std::vector<matching::ProjectionCandidate> window = candidates;
-      for (auto& c : window) c.radius *= widen;
-      matches = matching::searchByProjection(frame, camera_, window, matcher_options_);
-      if (matches >= kMinMotionMatches) break;
-    }
-    const int inliers = matches >= kMinWeakInliers ? optimizeFramePose(frame) : 0;
+    const auto [matches, inliers] =
+        searchFromPrediction(frame, motionCandidates(next), predicted, {1.0, 2.0, 4.0}, kMinWeakInliers);
     // The bars of tracking (no local map refines the pose here): a tracked pose's after stage 2,
     // or a weak pose's, near the prediction.
     const bool accepted = inliers >= kMinLocalMapInliersAfterStage2 ||
@@ -495,21 +486,29 @@ std::vector<matching::ProjectionCandidate> Tracker::motionCandidates(const map::
   return candidates;
 }
 
+Tracker::SearchResult Tracker::searchFromPrediction(map::Frame& frame,
+                                                    const std::vector<matching::ProjectionCandidate>& candidates,
+                                                    const SE3& predicted_T_c_w, std::initializer_list<double> widen,
+                                                    int min_matches) {
+  frame.T_c_w = predicted_T_c_w;
+  SearchResult result;
+  for (double factor : widen) {
+    frame.clearMatches();
+    std::vector<matching::ProjectionCandidate> window = candidates;
+    for (auto& c : window) c.radius *= factor;
+    result.matches = matching::searchByProjection(frame, camera_, window, matcher_options_);
+    if (result.matches >= kMinMotionMatches) break;
+  }
+  result.inliers = result.matches < min_matches ? 0 : optimizeFramePose(frame);
+  return result;
+}
+
 bool Tracker::trackWithMotionModel(map::Frame& frame) {
   const std::vector<matching::ProjectionCandidate> candidates = motionCandidates(last_frame_);
   // One hypothesis: guided search around the points' predicted projections, widened once, then
   // pose-only optimisation. Returns the map-point inliers (0 when too few matches).
   auto attempt = [&](map::Frame& f, const SE3& predicted_T_c_w) {
-    f.T_c_w = predicted_T_c_w;
-    f.clearMatches();
-    std::vector<matching::ProjectionCandidate> window = candidates;
-    int matches = matching::searchByProjection(f, camera_, window, matcher_options_);
-    if (matches < kMinMotionMatches) {
-      f.clearMatches();
-      for (auto& c : window) c.radius *= 2.0;
-      matches = matching::searchByProjection(f, camera_, window, matcher_options_);
-    }
-    return matches < kMinMotionMatches ? 0 : optimizeFramePose(f);
+    return searchFromPrediction(f, candidates, predicted_T_c_w, {1.0, 2.0}, kMinMotionMatches).inliers;
   };
   // Constant velocity in time, not per frame: a dropped frame doubles the motion to predict.
   int inliers = attempt(frame, motionOver(frame.timestamp - last_frame_.timestamp) * last_frame_.T_c_w);

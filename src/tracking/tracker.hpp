@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <initializer_list>
 #include <optional>
 #include <vector>
 
@@ -103,6 +104,15 @@ class Tracker {
   // Projection candidates from a tracked frame: its matched map points and, for close features
   // without one, visual-odometry points from its depth.
   std::vector<matching::ProjectionCandidate> motionCandidates(const map::Frame& from) const;
+  // Guided search of `candidates` from predicted_T_c_w, the window scaled by each `widen` factor
+  // in turn until kMinMotionMatches matched, then pose-only optimisation when at least
+  // min_matches did (inliers 0 otherwise).
+  struct SearchResult {
+    int matches = 0;
+    int inliers = 0;
+  };
+  SearchResult searchFromPrediction(map::Frame& frame, const std::vector<matching::ProjectionCandidate>& candidates,
+                                    const SE3& predicted_T_c_w, std::initializer_list<double> widen, int min_matches);
   // A frame with no pose or a predicted one: kept (features only) for settle().
   void keepUnsettled(const map::Frame& frame, bool predicted);
   // `found` was just tracked: the frames kept by keepUnsettled() get poses, newest first, each
