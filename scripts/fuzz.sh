@@ -6,6 +6,8 @@
 #                                          each target (default: all) for SECONDS (default 60),
 #                                          growing build-fuzz/corpus/<target> from fuzz/corpus;
 #                                          crashes land in build-fuzz/artifacts/ (exit 1 if any)
+#   scripts/fuzz.sh --build                builds (or updates) build-fuzz only; scripts/test.sh runs
+#                                          it before the suite, so fuzz_bounded_runs fuzzes this code
 #   scripts/fuzz.sh --bounded [BUILD_DIR]  2000 inputs per target of an existing fuzz build (the
 #                                          default suite's fuzz_bounded_runs); exit 77 = skipped
 #   scripts/fuzz.sh --run-one BIN TARGET [libFuzzer options]  one target on a scratch copy of its seeds
@@ -39,7 +41,22 @@ run_one() {
   rm -rf "$work"
 }
 
+# Configures build-fuzz (clang, -DDESSLAM_FUZZ=ON) if needed and builds fuzz_<target> for each argument.
+build_fuzz() {
+  command -v clang++ >/dev/null 2>&1 || { echo "error: clang++ not found: apt-get install clang libclang-rt-14-dev" >&2; exit 1; }
+  if [ ! -f "$root/build-fuzz/CMakeCache.txt" ]; then
+    nice -n 19 cmake -S "$root" -B "$root/build-fuzz" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+      -DCMAKE_CXX_COMPILER=clang++ -DDESSLAM_FUZZ=ON -DDESSLAM_BUILD_TESTS=OFF -DDESSLAM_BUILD_BENCH=OFF \
+      -DDESSLAM_BUILD_PYTHON=OFF
+  fi
+  nice -n 19 cmake --build "$root/build-fuzz" -j "${JOBS:-2}" --target $(printf 'fuzz_%s ' "$@")
+}
+
 case "${1:-}" in
+  --build)
+    build_fuzz "${targets_all[@]}"
+    exit 0
+    ;;
   --run-one)
     shift
     run_one "$@"
@@ -67,14 +84,8 @@ seconds="${1:-60}"
 [ "$#" -gt 0 ] && shift
 targets=("$@")
 [ "${#targets[@]}" -eq 0 ] && targets=("${targets_all[@]}")
-command -v clang++ >/dev/null 2>&1 || { echo "error: clang++ not found: apt-get install clang" >&2; exit 1; }
 build="$root/build-fuzz"
-if [ ! -f "$build/CMakeCache.txt" ]; then
-  nice -n 19 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DDESSLAM_FUZZ=ON \
-    -DDESSLAM_BUILD_TESTS=OFF -DDESSLAM_BUILD_BENCH=OFF
-fi
-nice -n 19 cmake --build "$build" -j "${JOBS:-2}" --target $(printf 'fuzz_%s ' "${targets[@]}")
+build_fuzz "${targets[@]}"
 mkdir -p "$build/artifacts"
 failed=0
 for t in "${targets[@]}"; do

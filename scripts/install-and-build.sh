@@ -12,6 +12,7 @@ PACKAGES=(
   libxnnpack-dev libpthreadpool-dev libssl-dev file
   pybind11-dev python3-dev python3-numpy python3-pytest
   librosbag-storage-dev libroscpp-core-dev
+  clang libclang-rt-14-dev
 )
 
 missing=()
