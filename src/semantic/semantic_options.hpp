@@ -44,9 +44,10 @@ struct SemanticOptions {
   double realtime_max_rate_hz = 10.0;
   // Real-time mode: a frame the network is segmenting (it starts on a frame as it arrives, while
   // tracking extracts features) waits up to this long for its own mask instead of taking the
-  // previous one carried forward, as far as the frame period leaves time after the previous
-  // frame's processing (tracking keeps the sensor's rate). 0: never waits.
-  double realtime_mask_wait_ms = 15.0;
+  // previous one carried forward, as far as it then ends at most half a frame period behind the
+  // sensor (judged from the previous frame's processing; the frames after it, which the resting
+  // network leaves alone, catch up). 0: never waits.
+  double realtime_mask_wait_ms = 20.0;
   // A keyframe made while the mask was carried forward (real time, emulated latency) gets its own
   // frame's mask before local mapping uses it (segmented for it when the stream skipped that
   // frame): the features in it leave the keyframe, and the points only it held leave the map.

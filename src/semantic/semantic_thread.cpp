@@ -186,8 +186,8 @@ std::size_t SemanticThread::storedResultCount() const {
 }
 
 void SemanticThread::run() {
-  // Real time: tracking waits for the network only within a frame period, so the network yields
-  // the CPU to it.
+  // Real time: tracking waits for the network only briefly (a frame ends at most half a frame
+  // period late), so the network yields the CPU to it.
   if (mode_ == SemanticMode::kRealtime) lowerCurrentThreadPriority(5);
   for (;;) {
     Job job;

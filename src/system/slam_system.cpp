@@ -125,11 +125,13 @@ cv::Mat SlamSystem::maskFor(uint64_t frame_id, const std::shared_ptr<const cv::M
     result = semantic_->waitForOwnMask(frame_id);
     stats.own_mask_waited = true;
   } else if (settings_.realtime) {
-    // The frame period minus what the previous frame took besides waiting for its mask, and
-    // minus how far behind the sensor this frame already is.
-    const double budget_ms = std::min(options_.semantic.realtime_mask_wait_ms,
-                                      1000.0 / options_.camera.fps -
-                                          (previous_processing_ms_ + kRealtimeMargin_ms + realtime_behind_ms_));
+    // The frame may end up to half a frame period behind the sensor: the frames after it do not
+    // wait (the network rests) and catch up. So: 1.5 frame periods minus what the previous frame
+    // took besides waiting for its mask, and minus how far behind the sensor this one already is.
+    const double period_ms = 1000.0 / options_.camera.fps;
+    const double budget_ms =
+        std::min(options_.semantic.realtime_mask_wait_ms,
+                 1.5 * period_ms - (previous_processing_ms_ + kRealtimeMargin_ms + realtime_behind_ms_));
     if (budget_ms > 0)
       semantic_->waitUntilFinished(frame_id, std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                                  std::chrono::duration<double, std::milli>(budget_ms)));

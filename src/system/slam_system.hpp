@@ -5,7 +5,7 @@
 // semantic thread; local mapping, loop closing (with its global BA) and dense mapping in their
 // own threads. With `deterministic`, local mapping and loop closing run inline after each
 // keyframe and tracking waits for every mask, so two runs give identical trajectories. In
-// real-time mode tracking waits for the network only within the frame period (a frame being
+// real-time mode tracking waits for the network only briefly (a frame being
 // segmented, semantic.realtime_mask_wait_ms): a frame without a fresh mask uses the newest one
 // carried forward along optical flow.
 #pragma once
@@ -232,7 +232,7 @@ class SlamSystem {
 
   std::vector<FrameStats> frames_;
   // Real time: the previous frame's processing time without its mask wait, and the time a frame
-  // keeps free of the mask wait (the frame period minus both bounds the wait).
+  // keeps free of the mask wait (1.5 frame periods minus both bounds the wait).
   double previous_processing_ms_ = 0;
   static constexpr double kRealtimeMargin_ms = 3.0;
   struct {
