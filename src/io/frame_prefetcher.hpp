@@ -44,8 +44,9 @@ class FramePrefetcher {
   const std::vector<std::size_t> indices_;
   const std::size_t max_ahead_;
 
-  // Lock discipline: mutex_ guards loaded_, next_taken_ and stopping_. The prefetch thread is the
-  // only caller of sequence_.load(); take() and the destructor run on the consumer's thread.
+  // Lock discipline: mutex_ guards loaded_, next_taken_, loader_done_ and stopping_. The prefetch
+  // thread is the only caller of sequence_.load(); take() and the destructor run on the consumer's
+  // thread.
   std::mutex mutex_;
   std::condition_variable loaded_changed_;  // a frame was loaded, or the loader ended
   std::condition_variable space_changed_;   // a frame was taken, or stop

@@ -1,6 +1,5 @@
 #include "io/frame_prefetcher.hpp"
 
-#include <atomic>
 #include <chrono>
 #include <mutex>
 #include <set>
@@ -17,7 +16,7 @@ namespace desslam::io {
 namespace {
 
 // A sequence of `size` frames whose image k is filled with the value k % 256; loading frame
-// `failing` throws. Counts the loads and records the largest number of frames loaded ahead.
+// `failing` throws. Records which frames were loaded.
 class CountingSequence : public RgbdSequence {
  public:
   CountingSequence(std::size_t size, std::size_t failing = SIZE_MAX) : size_(size), failing_(failing) {}
