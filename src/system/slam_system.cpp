@@ -270,6 +270,7 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   stats.new_map = outcome.new_map;
   stats.weak = outcome.weak;
   stats.predicted = outcome.predicted;
+  stats.odometry = outcome.odometry;
   if (outcome.relocalisation) {
     const tracking::RelocalisationResult& r = *outcome.relocalisation;
     stats.reloc_candidates = r.candidates;
@@ -595,7 +596,8 @@ nlohmann::json SlamSystem::statistics() const {
                          {"timestamp", f.timestamp}, {"map", f.map}, {"new_map", f.new_map},
                          {"features_with_depth", f.features_with_depth},
                          {"static_with_depth", f.static_with_depth},
-                         {"weak", f.weak}, {"predicted", f.predicted}, {"backfilled", f.backfilled},
+                         {"weak", f.weak}, {"odometry", f.odometry}, {"predicted", f.predicted},
+                         {"backfilled", f.backfilled},
                          {"interpolated", f.interpolated}});
     if (f.reloc_candidates >= 0)
       per_frame.back()["relocalisation"] = {{"candidates", f.reloc_candidates}, {"best_matches", f.reloc_matches},
@@ -618,6 +620,7 @@ nlohmann::json SlamSystem::statistics() const {
                    {"implausible_jumps_refused", tracker_.implausibleJumps()},
                    {"bridge_disagreements_refused", tracker_.bridgeDisagreements()},
                    {"weak_poses", tracker_.weakPoses()},
+                   {"odometry_poses", tracker_.odometryPoses()},
                    {"predicted_poses", tracker_.predictedPoses()},
                    {"backfilled_poses", tracker_.backfilledPoses()},
                    {"interpolated_poses", tracker_.interpolatedPoses()},

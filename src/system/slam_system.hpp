@@ -94,6 +94,7 @@ struct FrameStats {
   bool motion_model = false;  // the first estimate came from the constant-velocity prediction
   bool new_map = false;       // the frame started a map of the atlas
   bool weak = false;          // tracked with few inliers that agreed with the motion prediction
+  bool odometry = false;      // tracked by frame-to-frame odometry alone (tracking.odometry_min_inliers)
   bool predicted = false;     // not tracked: the motion prediction is its pose (tracking.predict_through_loss_s)
   bool backfilled = false;    // not tracked then: a later frame's tracking gave it a pose (tracking.backfill_max_s)
   bool interpolated = false;  // not tracked then: its pose lies between the frames tracked before and after

@@ -5,8 +5,10 @@
 #include <cmath>
 #include <map>
 #include <mutex>
+#include <random>
 #include <shared_mutex>
 
+#include <Eigen/Geometry>
 #include <spdlog/spdlog.h>
 
 #include "dynamic/depth_checks.hpp"
@@ -35,6 +37,13 @@ constexpr size_t kRecoveryKeyframes = 8;   // when lost, the newest keyframes tr
 constexpr double kStillTranslation = 0.005;        // metres per frame below which motion is negligible
 constexpr double kStillRotation = 0.5 * M_PI / 180;  // radians per frame
 constexpr size_t kBridgeVelocityFrames = 5;  // tracked frames whose average motion bridges a loss
+// Frame-to-frame odometry (trackWithOdometry): descriptor matching between consecutive frames,
+// whose descriptors barely change, within a window around the same pixel.
+constexpr int kOdometryMaxDescriptorDistance = 64;
+constexpr double kOdometryMatchRatio = 0.8;
+constexpr double kOdometryWindowPx = 100.0;     // per 1/30 s since the last tracked frame ...
+constexpr double kOdometryMaxWindowPx = 300.0;  // ... up to this
+constexpr double kOdometryDepthTolerance = 0.1;  // relative depth disagreement an odometry inlier may have
 // Keyframes keep a half-resolution depth image only when stage 2 will look at it.
 
 bool nearPrediction(const SE3& T_c_w, const SE3& predicted_T_c_w) {
@@ -118,6 +127,18 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     // starts a new map).
     if (!ok && options_.relocalisation.enabled) ok = trackRecentKeyframes(frame);
   }
+  // No pose from the map: frame-to-frame odometry needs no prediction. A camera turning fast while
+  // walkers cover most of the view outruns the motion model's window and leaves the reference
+  // keyframe too few points, yet hundreds of static features still match the last frame's.
+  std::optional<OdometryPose> odometry;
+  if (!ok && options_.tracking.odometry_min_inliers > 0) {
+    odometry = trackWithOdometry(frame);
+    if (odometry) {
+      frame.T_c_w = odometry->T_c_w;
+      frame.matches = odometry->matches;
+      ok = true;
+    }
+  }
   // Too few features outside the mask for a first estimate (a person filling the view): fall
   // back on the motion prediction and let stage 1 and the local map decide. Only then: without
   // masked features a failed first estimate means the prediction is not to be trusted.
@@ -146,7 +167,17 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   };
   bool weak = false;
   if (attempted && !ok && weakButConsistent()) ok = weak = true;
-  if (ok && stage2_enabled_) {
+  // The local map has too few points here (the view is new, or covered where it is mapped): the
+  // odometry pose stands; the next frame goes on from it (no keyframe: see
+  // tracking.odometry_min_inliers).
+  bool odometry_only = false;
+  if (!ok && odometry) {
+    frame.T_c_w = odometry->T_c_w;
+    frame.matches = odometry->matches;
+    inliers = odometry->inliers;
+    ok = odometry_only = true;
+  }
+  if (ok && stage2_enabled_ && !odometry_only) {
     outcome.stage2_removed = applyStage2(frame);
     if (outcome.stage2_removed > 0) inliers = optimizeFramePose(frame);
     ok = inliers >= kMinLocalMapInliersAfterStage2 || (weak = weakButConsistent());
@@ -175,6 +206,8 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     ++bridge_disagreements_;
   }
 
+  outcome.odometry = ok && odometry_only;
+  if (outcome.odometry) ++odometry_poses_;
   if (!ok) {
     if (state_ == TrackingState::kOk) {
       ++losses_;
@@ -243,7 +276,7 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     velocity_ = frame.T_c_w * last_frame_.T_c_w.inverse();
     velocity_interval_s_ = frame.timestamp - last_frame_.timestamp;
   }
-  if (needKeyframe(frame, inliers, mapping_idle, mapping_backlog)) outcome.new_keyframe = createKeyframe(frame, inliers);
+  if (!outcome.odometry && needKeyframe(frame, inliers, mapping_idle, mapping_backlog)) outcome.new_keyframe = createKeyframe(frame, inliers);
 
   {
     std::shared_lock lock(map_.mutex());
@@ -525,6 +558,148 @@ bool Tracker::trackWithMotionModel(map::Frame& frame) {
     }
   }
   return inliers >= kMinMapInliersStep;
+}
+
+std::optional<Tracker::OdometryPose> Tracker::trackWithOdometry(const map::Frame& frame) const {
+  if (last_frame_.features == nullptr || frame.features == nullptr) return std::nullopt;
+  const map::FeatureSet& last = *last_frame_.features;
+  const map::FeatureSet& current = *frame.features;
+  const int min_inliers = options_.tracking.odometry_min_inliers;
+  // The last frame's static features with a 3-D point: its map point, else its own depth.
+  std::vector<int> last_indices;
+  std::vector<Vec3> last_p_w(last.size());
+  std::vector<map::MapPoint*> last_points(last.size(), nullptr);
+  {
+    std::shared_lock lock(map_.mutex());
+    const SE3 T_w_l = last_frame_.T_c_w.inverse();
+    for (size_t i = 0; i < last.size(); ++i) {
+      if (!last_frame_.usable(i)) continue;
+      const map::FeatureMatch& m = last_frame_.matches[i];
+      if (m.point != nullptr && !m.outlier && !m.point->bad) {
+        last_p_w[i] = m.point->position;
+        last_points[i] = m.point;
+      } else if (last.hasDepth(i) && last.depth[i] <= options_.tracking.max_depth) {
+        last_p_w[i] = T_w_l * camera_.backProject(last.uv[i], last.depth[i]);
+      } else {
+        continue;
+      }
+      last_indices.push_back(static_cast<int>(i));
+    }
+  }
+  std::vector<int> current_indices;
+  for (size_t j = 0; j < current.size(); ++j)
+    if (frame.usable(j)) current_indices.push_back(static_cast<int>(j));
+  if (static_cast<int>(std::min(last_indices.size(), current_indices.size())) < min_inliers) return std::nullopt;
+
+  // Descriptor matches within a window around the same pixel (no prediction), so that the ratio
+  // test compares neighbours only and a repeated texture elsewhere does not void it.
+  const double frames_elapsed = std::max(1.0, (frame.timestamp - last_frame_.timestamp) * 30.0);
+  const double window_px = std::min(kOdometryWindowPx * frames_elapsed, kOdometryMaxWindowPx);
+  const std::vector<std::pair<int, int>> pairs = matching::matchDescriptors(
+      last, last_indices, current, current_indices, kOdometryMaxDescriptorDistance, kOdometryMatchRatio,
+      /*check_orientation=*/true,
+      [&](int i, int j) { return (last.uv[i] - current.uv[j]).norm() <= window_px; });
+  if (static_cast<int>(pairs.size()) < min_inliers) {
+    spdlog::debug("tracking: frame {} odometry against frame {}: {} matches", frame.id, last_frame_.id, pairs.size());
+    return std::nullopt;
+  }
+
+  // RANSAC over rigid motions from three matches with depth on both sides (3-D to 3-D, so no
+  // mirrored or depth-ambiguous solution as PnP on reprojection alone can give). An inlier
+  // reprojects within relocalisation.ransac_reprojection_px and, where this frame has depth, lies
+  // at that depth.
+  std::vector<Vec3> p_c_measured(pairs.size(), Vec3::Zero());
+  std::vector<int> with_depth;
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    const int j = pairs[k].second;
+    if (!current.hasDepth(j)) continue;
+    p_c_measured[k] = camera_.backProject(current.uv[j], current.depth[j]);
+    with_depth.push_back(static_cast<int>(k));
+  }
+  if (with_depth.size() < 3) return std::nullopt;
+  const double max_px = options_.relocalisation.ransac_reprojection_px;
+  const auto inliersOf = [&](const SE3& T_c_w, std::vector<int>* out) {
+    int count = 0;
+    for (size_t k = 0; k < pairs.size(); ++k) {
+      const auto [i, j] = pairs[k];
+      const Vec3 p_c = T_c_w * last_p_w[i];
+      if (p_c.z() <= options_.tracking.min_depth) continue;
+      if ((camera_.project(p_c) - current.uv[j]).norm() > max_px) continue;
+      if (current.hasDepth(j) && std::abs(p_c.z() - current.depth[j]) > kOdometryDepthTolerance * current.depth[j])
+        continue;
+      ++count;
+      if (out != nullptr) out->push_back(static_cast<int>(k));
+    }
+    return count;
+  };
+  const auto rigidFit = [&](const std::vector<int>& subset) {
+    Eigen::Matrix3Xd from(3, subset.size()), to(3, subset.size());
+    for (size_t n = 0; n < subset.size(); ++n) {
+      from.col(static_cast<Eigen::Index>(n)) = last_p_w[pairs[subset[n]].first];
+      to.col(static_cast<Eigen::Index>(n)) = p_c_measured[subset[n]];
+    }
+    const Eigen::Matrix4d T = Eigen::umeyama(from, to, /*with_scaling=*/false);
+    return SE3(T.topLeftCorner<3, 3>(), T.topRightCorner<3, 1>());
+  };
+  std::mt19937 rng(static_cast<uint32_t>(frame.id));  // deterministic per frame
+  std::uniform_int_distribution<size_t> pick(0, with_depth.size() - 1);
+  SE3 best_T_c_w;
+  int best = 0;
+  for (int iteration = 0; iteration < options_.relocalisation.ransac_iterations; ++iteration) {
+    const size_t a = pick(rng), b = pick(rng), c = pick(rng);
+    if (a == b || b == c || a == c) continue;
+    const SE3 T_c_w = rigidFit({with_depth[a], with_depth[b], with_depth[c]});
+    if (!T_c_w.matrix().allFinite()) continue;
+    const int n = inliersOf(T_c_w, nullptr);
+    if (n > best) {
+      best = n;
+      best_T_c_w = T_c_w;
+    }
+  }
+  if (best < min_inliers) {
+    spdlog::debug("tracking: frame {} odometry against frame {}: {} matches, {} inliers at best", frame.id,
+                  last_frame_.id, pairs.size(), best);
+    return std::nullopt;
+  }
+  // The fit of three points is only a hypothesis: the pose comes from pose-only optimisation on
+  // its inliers (reprojection with the depth residual, robust), as tracking's own poses do; a
+  // rigid fit of all inliers in 3-D would weigh the depth noise of far points like pixels (a
+  // fr1_desk composite: 176 inliers, 4 cm off).
+  const auto matchesOf = [&](const std::vector<int>& subset) {
+    std::vector<map::FeatureMatch> matches(current.size());
+    for (int k : subset) {
+      const auto [i, j] = pairs[k];
+      if (last_points[i] != nullptr) {
+        matches[j].point = last_points[i];
+      } else {
+        matches[j].has_vo_point = true;
+        matches[j].vo_point = last_p_w[i];
+      }
+    }
+    return matches;
+  };
+  std::vector<int> inliers;
+  inliersOf(best_T_c_w, &inliers);
+  map::Frame refined = frame;
+  refined.T_c_w = best_T_c_w;
+  refined.matches = matchesOf(inliers);
+  tracking::optimizeFramePose(refined, map_, camera_, bf_, /*vo_check_min_map_inliers=*/0);
+  std::vector<int> refined_inliers;
+  if (refined.T_c_w.matrix().allFinite() && inliersOf(refined.T_c_w, &refined_inliers) >= min_inliers) {
+    best_T_c_w = refined.T_c_w;
+    inliers = std::move(refined_inliers);
+  }
+
+  OdometryPose result;
+  result.T_c_w = best_T_c_w;
+  result.inliers = static_cast<int>(inliers.size());
+  result.matches = matchesOf(inliers);
+  const double seconds = std::max(frame.timestamp - last_frame_.timestamp, 1.0 / 30.0);
+  const double moved_m = (result.T_c_w.inverse().translation() - last_frame_.T_c_w.inverse().translation()).norm();
+  spdlog::debug("tracking: frame {} odometry against frame {}: {} matches, {} inliers, moved {:.3f} m in {:.3f} s",
+                frame.id, last_frame_.id, pairs.size(), result.inliers, moved_m, seconds);
+  if (moved_m > options_.tracking.max_speed_m_s * seconds) return std::nullopt;
+  return result;
 }
 
 bool Tracker::implausibleJump(const map::Frame& frame) const {

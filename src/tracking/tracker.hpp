@@ -46,6 +46,7 @@ struct TrackOutcome {
   bool new_map = false;                   // this frame started a map of the atlas
   bool weak = false;                      // tracked with few inliers that agreed with the motion prediction
   bool predicted = false;                 // not tracked, but given the motion prediction as its pose
+  bool odometry = false;                  // the map gave no pose; frame-to-frame odometry did (counts as tracked)
   // Earlier frames (lost, or predicted) whose records were replaced now: tracked backwards from
   // this frame (tracking.backfill_max_s), or interpolated between the last frame tracked before
   // the loss and them (found again in the same map).
@@ -78,6 +79,7 @@ class Tracker {
   int weakPoses() const { return weak_poses_; }  // frames kept with few inliers near the prediction
   int predictedPoses() const { return predicted_poses_; }  // lost frames given the motion prediction
   int backfilledPoses() const { return backfilled_poses_; }  // frames tracked backwards afterwards
+  int odometryPoses() const { return odometry_poses_; }  // frames whose pose came from odometry alone
   int interpolatedPoses() const { return interpolated_poses_; }  // frames interpolated afterwards
   int mapsStarted() const { return maps_started_; }           // maps of the atlas this tracker started
   int initialisationsRefused() const { return initialisations_refused_; }  // frames too weak to start a map
@@ -121,6 +123,15 @@ class Tracker {
   // interpolated between it and the oldest one settled. Clears them.
   void settle(const map::Frame& found, const std::optional<StampedPose>& before_loss, TrackOutcome& outcome);
   bool trackReferenceKeyframe(map::Frame& frame);
+  // Frame-to-frame odometry against last_frame_ (tracking.odometry_min_inliers): descriptor
+  // matches of the frame's static features with the last frame's depth-backed ones, then
+  // PnP-RANSAC. Nothing when too few inliers or the camera would have moved implausibly fast.
+  struct OdometryPose {
+    SE3 T_c_w;
+    std::vector<map::FeatureMatch> matches;  // the inliers: map points, else visual-odometry points
+    int inliers = 0;
+  };
+  std::optional<OdometryPose> trackWithOdometry(const map::Frame& frame) const;
   // The camera motion T_later_earlier over `seconds` at the current velocity (identity without one).
   SE3 motionOver(double seconds) const;
   // Whether frame.T_c_w implies a camera faster than tracking.max_speed_m_s since the last frame.
@@ -212,6 +223,7 @@ class Tracker {
   int weak_poses_ = 0;
   int predicted_poses_ = 0;
   int backfilled_poses_ = 0;
+  int odometry_poses_ = 0;
   int interpolated_poses_ = 0;
   int initialisations_refused_ = 0;
   int active_map_ = -1;         // the atlas map tracking works in (its live id after merges)

@@ -3,6 +3,8 @@
 //    faster than that is lost (Tracker::implausibleJumps()).
 //  - a short loss is bridged by the average motion of the last 5 tracked frames, and a frame
 //    found again far from that bridge is refused (tracking.max_acceleration_m_s2).
+//  - tracking.odometry_min_inliers: when the map gives no pose, frame-to-frame odometry against
+//    the last tracked frame does (no keyframe from it); a depth that disagrees is refused.
 //  - Frame::mapping_margin_px: a keyframe maps nothing within that many pixels of the dynamic
 //    mask, and is not made when fewer than 100 mappable features remain.
 // dynamic.mode "off": stage 1/2 leave the statuses alone, so the tests set them as they need.
@@ -57,6 +59,16 @@ class Rig {
 
   map::Frame render(const SE3& T_w_c, Timestamp t, uint64_t id) const {
     return desslam::test::renderSyntheticFrame(scene_, extractor_, pyramid_, camera_, options_.tracking, T_w_c, t, id);
+  }
+
+  // The same view with every depth reading multiplied by depth_scale.
+  map::Frame renderScaledDepth(const SE3& T_w_c, Timestamp t, uint64_t id, double depth_scale) const {
+    const sim::RenderedFrame rendered = scene_.render(T_w_c, t);
+    cv::Mat gray;
+    cv::cvtColor(rendered.bgr, gray, cv::COLOR_BGR2GRAY);
+    const cv::Mat depth = rendered.depth * depth_scale;
+    return desslam::test::frameFromImages(gray, depth, extractor_, pyramid_, camera_, options_.tracking, t, id,
+                                          "scaled_" + std::to_string(id));
   }
 
   map::Frame blank(Timestamp t, uint64_t id) const {
@@ -313,6 +325,58 @@ TEST(TrackerBridging, AFrameFoundAgainFarFromTheBridgedPoseIsRefused) {
       EXPECT_EQ(rig.tracker().implausibleJumps(), 0);
       if (displaced && !refused) EXPECT_LT(cameraDistance(back.T_c_w, expected_jump_T_c_w), 0.03);
     }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Odometry when the map gives no pose (tracking.odometry_min_inliers)
+
+// Ten frames tracked on the sweep, then every map point is made bad and frames carry no
+// visual-odometry points of their own (close_depth at its minimum): motion model, reference
+// keyframe and local map find nothing, as when people cover the mapped part of the view. The next
+// three frames are tracked by odometry, each against the one before, within 1 cm of the truth and
+// without keyframes. With odometry off the first of them only gets the bridged prediction.
+// With its depth 30 % too far (the view the same) the frame is refused: the pose that reprojects
+// the matches does not put them at the frame's depth.
+TEST(TrackerOdometry, CarriesTrackingWhenTheMapGivesNoPoseAndRefusesADisagreeingDepth) {
+  constexpr int kOdometryFrames = 3;
+  const Trajectory path = sim::sweepPath(kSpeedFrames + kOdometryFrames, baseOptions().camera.fps);
+  const auto expectedTcw = [&](int i) { return (path.front().T_w_c.inverse() * path[i].T_w_c).inverse(); };
+  enum class Case { kOdometry, kOff, kWrongDepth };
+  for (const Case c : {Case::kOdometry, Case::kOff, Case::kWrongDepth}) {
+    SCOPED_TRACE(c == Case::kOdometry ? "odometry" : c == Case::kOff ? "odometry off" : "wrong depth");
+    SystemOptions options = baseOptions();
+    options.tracking.close_depth = options.tracking.min_depth;  // no visual-odometry points in the motion model
+    options.atlas.enabled = false;
+    ASSERT_EQ(options.tracking.odometry_min_inliers, 30);
+    if (c == Case::kOff) options.tracking.odometry_min_inliers = 0;
+    Rig rig(options);
+    for (int i = 0; i < kSpeedFrames; ++i) {
+      map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
+      ASSERT_TRUE(rig.track(frame).tracked) << "frame " << i;
+    }
+    {
+      std::unique_lock lock(rig.map().mutex());
+      for (map::MapPoint* p : rig.map().points()) p->bad = true;
+    }
+    for (int i = kSpeedFrames; i < kSpeedFrames + kOdometryFrames; ++i) {
+      map::Frame frame = c == Case::kWrongDepth
+                             ? rig.renderScaledDepth(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i), 1.3)
+                             : rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
+      const TrackOutcome outcome = rig.track(frame);
+      if (c == Case::kOdometry) {
+        EXPECT_TRUE(outcome.tracked) << "frame " << i;
+        EXPECT_TRUE(outcome.odometry) << "frame " << i;
+        EXPECT_EQ(outcome.new_keyframe, nullptr) << "frame " << i;
+        EXPECT_LT(cameraDistance(frame.T_c_w, expectedTcw(i)), 0.01) << "frame " << i;
+      } else {
+        EXPECT_FALSE(outcome.tracked) << "frame " << i;
+        EXPECT_FALSE(outcome.odometry) << "frame " << i;
+        EXPECT_TRUE(outcome.predicted) << "frame " << i;
+        break;
+      }
+    }
+    EXPECT_EQ(rig.tracker().odometryPoses(), c == Case::kOdometry ? kOdometryFrames : 0);
   }
 }
 
