@@ -194,7 +194,7 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     std::shared_lock lock(map_.mutex());
     back_in_last_map = last_reference_->map_id == reference_keyframe_->map_id;
   }
-  if (ok && (!recovering || back_in_last_map) && implausibleJump(frame)) {
+  if (ok && (!recovering || back_in_last_map) && implausibleJump(frame.T_c_w, frame.timestamp)) {
     ok = false;
     ++implausible_jumps_;
   }
@@ -694,18 +694,16 @@ std::optional<Tracker::OdometryPose> Tracker::trackWithOdometry(const map::Frame
   result.T_c_w = best_T_c_w;
   result.inliers = static_cast<int>(inliers.size());
   result.matches = matchesOf(inliers);
-  const double seconds = std::max(frame.timestamp - last_frame_.timestamp, 1.0 / 30.0);
-  const double moved_m = (result.T_c_w.inverse().translation() - last_frame_.T_c_w.inverse().translation()).norm();
-  spdlog::debug("tracking: frame {} odometry against frame {}: {} matches, {} inliers, moved {:.3f} m in {:.3f} s",
-                frame.id, last_frame_.id, pairs.size(), result.inliers, moved_m, seconds);
-  if (moved_m > options_.tracking.max_speed_m_s * seconds) return std::nullopt;
+  spdlog::debug("tracking: frame {} odometry against frame {}: {} matches, {} inliers", frame.id, last_frame_.id,
+                pairs.size(), result.inliers);
+  if (implausibleJump(result.T_c_w, frame.timestamp)) return std::nullopt;
   return result;
 }
 
-bool Tracker::implausibleJump(const map::Frame& frame) const {
+bool Tracker::implausibleJump(const SE3& T_c_w, Timestamp t) const {
   // A non-positive interval (equal timestamps) is taken as one frame at 30 Hz.
-  const double seconds = std::max(frame.timestamp - last_frame_.timestamp, 1.0 / 30.0);
-  const double moved = (frame.T_c_w.inverse().translation() - last_frame_.T_c_w.inverse().translation()).norm();
+  const double seconds = std::max(t - last_frame_.timestamp, 1.0 / 30.0);
+  const double moved = (T_c_w.inverse().translation() - last_frame_.T_c_w.inverse().translation()).norm();
   return moved > options_.tracking.max_speed_m_s * seconds;
 }
 

@@ -134,8 +134,9 @@ class Tracker {
   std::optional<OdometryPose> trackWithOdometry(const map::Frame& frame) const;
   // The camera motion T_later_earlier over `seconds` at the current velocity (identity without one).
   SE3 motionOver(double seconds) const;
-  // Whether frame.T_c_w implies a camera faster than tracking.max_speed_m_s since the last frame.
-  bool implausibleJump(const map::Frame& frame) const;
+  // Whether pose T_c_w at time t implies a camera faster than tracking.max_speed_m_s since the last
+  // tracked frame.
+  bool implausibleJump(const SE3& T_c_w, Timestamp t) const;
   // Descriptor matching against one keyframe's map points, then pose-only optimisation.
   bool trackKeyframe(map::Frame& frame, map::Keyframe* keyframe);
   // When lost: the newest keyframes, one after another (relocalisation light).
