@@ -88,6 +88,10 @@ class Keyframe {
   bool not_erase = false;                         // protected from culling (e.g. while loop closing uses it)
   int map_id = 0;                                 // atlas map it belongs to (merges relabel it)
   bool map_origin = false;                        // first keyframe of its map: holds the gauge, never culled
+  // Made at a frame-to-frame odometry pose while sharing too few points with its map for bundle
+  // adjustment to place it: its pose is held like the origin's (local BA keeps it fixed, culling
+  // keeps it), and the keyframes built on its points follow it.
+  bool pose_held = false;
 
   bool usable(size_t i) const { return status[i] == FeatureStatus::kStatic; }
   SE3 T_w_c() const { return T_c_w.inverse(); }

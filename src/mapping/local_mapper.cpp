@@ -289,7 +289,8 @@ void LocalMapper::localBundleAdjustment(map::Keyframe* kf, const std::atomic<boo
       keyframes.push_back(fkf);
     }
     std::vector<bool> is_fixed(keyframes.size());
-    for (size_t i = 0; i < keyframes.size(); ++i) is_fixed[i] = i >= local_count || keyframes[i]->map_origin;
+    for (size_t i = 0; i < keyframes.size(); ++i)
+      is_fixed[i] = i >= local_count || keyframes[i]->map_origin || keyframes[i]->pose_held;
     // With nothing fixed (early map) the oldest keyframe holds the gauge.
     if (std::none_of(is_fixed.begin(), is_fixed.end(), [](bool f) { return f; })) {
       auto oldest = std::min_element(keyframes.begin(), keyframes.end(),
@@ -315,7 +316,7 @@ void LocalMapper::localBundleAdjustment(map::Keyframe* kf, const std::atomic<boo
 void LocalMapper::cullRedundantKeyframes(map::Keyframe* kf) {
   std::unique_lock lock(map_.mutex());
   for (map::Keyframe* candidate : map::bestCovisibles(kf, 0)) {
-    if (candidate->map_origin || candidate->bad || candidate->not_erase) continue;
+    if (candidate->map_origin || candidate->pose_held || candidate->bad || candidate->not_erase) continue;
     const map::FeatureSet& f = *candidate->features;
     int considered = 0, redundant = 0;
     for (size_t i = 0; i < candidate->points.size(); ++i) {

@@ -10,6 +10,7 @@
 #include <open3d/geometry/PointCloud.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <spdlog/spdlog.h>
 
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
@@ -431,6 +432,20 @@ void SlamSystem::finish(const FinishControl& control) {
     ba.iterations = options_.mapping.global_ba_iterations;
     ba.threads = 2;  // nothing else runs now but the dense thread finishing its queue
     final_ba_ = optim::globalBundleAdjustment(map_, camera_, ba, control.abort);
+  }
+  // All merges are done: frames without a pose between two with one that ended in one map get
+  // poses between those (tracking::Tracker::interpolateAcrossMerges).
+  const std::vector<uint64_t> interpolated = tracker_.interpolateAcrossMerges();
+  if (!interpolated.empty()) {
+    std::map<uint64_t, int> map_of;
+    for (const tracking::FrameRecord& r : tracker_.records()) map_of[r.frame_id] = r.map_id;
+    for (uint64_t id : interpolated)
+      if (id < frames_.size()) {
+        frames_[id].interpolated = true;
+        frames_[id].map = map_of[id];
+      }
+    spdlog::debug("finish: {} frames interpolated between poses that merges brought into one map",
+                  interpolated.size());
   }
   stage("dense");
   if (dense_) dense_->waitUntilIdle();

@@ -44,6 +44,7 @@ constexpr double kOdometryMatchRatio = 0.8;
 constexpr double kOdometryWindowPx = 100.0;     // per 1/30 s since the last tracked frame ...
 constexpr double kOdometryMaxWindowPx = 300.0;  // ... up to this
 constexpr double kOdometryDepthTolerance = 0.1;  // relative depth disagreement an odometry inlier may have
+constexpr int kMinOdometryKeyframeMapPoints = 20;  // map points below which an odometry keyframe's pose is held
 // Keyframes keep a half-resolution depth image only when stage 2 will look at it.
 
 bool nearPrediction(const SE3& T_c_w, const SE3& predicted_T_c_w) {
@@ -167,11 +168,16 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   };
   bool weak = false;
   if (attempted && !ok && weakButConsistent()) ok = weak = true;
+  if (attempted && !ok && had_motion)
+    spdlog::debug("tracking: frame {} local map: {} inliers, {:.3f} m and {:.2f} deg from the prediction", frame.id,
+                  inliers, (frame.T_c_w.inverse().translation() - predicted_T_c_w.inverse().translation()).norm(),
+                  (frame.T_c_w * predicted_T_c_w.inverse()).rotationAngle() * 180.0 / M_PI);
   // The local map has too few points here (the view is new, or covered where it is mapped): the
-  // odometry pose stands; the next frame goes on from it (no keyframe: see
-  // tracking.odometry_min_inliers).
+  // odometry pose stands; the next frame goes on from it (a keyframe only in a young map: see the
+  // keyframe decision below).
   bool odometry_only = false;
   if (!ok && odometry) {
+    spdlog::debug("tracking: frame {} keeps its odometry pose: the local map gave {} inliers", frame.id, inliers);
     frame.T_c_w = odometry->T_c_w;
     frame.matches = odometry->matches;
     inliers = odometry->inliers;
@@ -276,7 +282,25 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     velocity_ = frame.T_c_w * last_frame_.T_c_w.inverse();
     velocity_interval_s_ = frame.timestamp - last_frame_.timestamp;
   }
-  if (!outcome.odometry && needKeyframe(frame, inliers, mapping_idle, mapping_backlog)) outcome.new_keyframe = createKeyframe(frame, inliers);
+  // A keyframe at an odometry pose only in a young map (atlas.young_map_keyframes), where the
+  // alternative is a map that never grows: tracking left its only keyframe behind (a fr1_desk
+  // composite: 110 frames tracked by odometry alone, 100-390 inliers each, in a map of one keyframe
+  // that place recognition could never find). In a grown map the next frames still have the map;
+  // there a keyframe at an odometry pose that a walker's coherent motion had carried (22 cm off
+  // with 107 inliers) corrupted it. Sharing few map points, bundle adjustment could move it
+  // anywhere (8 cm on another composite): its pose is then held (Keyframe::pose_held).
+  bool may_make_keyframe = true, hold_pose = false;
+  if (outcome.odometry) {
+    std::shared_lock lock(map_.mutex());
+    may_make_keyframe =
+        map_.keyframeCount(active_map_) < static_cast<size_t>(options_.atlas.young_map_keyframes);
+    const auto shared = std::count_if(frame.matches.begin(), frame.matches.end(), [](const map::FeatureMatch& m) {
+      return m.point != nullptr && !m.point->bad && !m.outlier;
+    });
+    hold_pose = shared < kMinOdometryKeyframeMapPoints;
+  }
+  if (may_make_keyframe && needKeyframe(frame, inliers, mapping_idle, mapping_backlog))
+    outcome.new_keyframe = createKeyframe(frame, inliers, hold_pose);
 
   {
     std::shared_lock lock(map_.mutex());
@@ -391,6 +415,39 @@ void Tracker::settle(const map::Frame& found, const std::optional<StampedPose>& 
   if (!outcome.backfilled.empty() || !outcome.interpolated.empty())
     spdlog::debug("tracking: frame {} settled {} earlier frames: {} backfilled, {} interpolated", found.id,
                   frames.size(), outcome.backfilled.size(), outcome.interpolated.size());
+}
+
+std::vector<uint64_t> Tracker::interpolateAcrossMerges() {
+  std::vector<uint64_t> interpolated;
+  const double max_span_s = 2 * options_.tracking.backfill_max_s;
+  if (max_span_s <= 0) return interpolated;
+  std::shared_lock lock(map_.mutex());
+  size_t before = records_.size();  // the last record with a pose so far
+  for (size_t i = 0; i < records_.size(); ++i) {
+    if (records_[i].reference == nullptr) continue;
+    if (before < i && i - before > 1) {
+      const FrameRecord& a = records_[before];
+      const FrameRecord& b = records_[i];
+      const double span = b.timestamp - a.timestamp;
+      if (a.reference->map_id == b.reference->map_id && span > 1e-6 && span <= max_span_s) {
+        const SE3 T_a_w = a.T_c_r * map::keyframeTcw(a.reference);
+        const SE3 T_b_w = b.T_c_r * map::keyframeTcw(b.reference);
+        const SE3 motion = T_b_w * T_a_w.inverse();
+        const SE3 T_w_ref = map::keyframeTcw(a.reference).inverse();
+        for (size_t k = before + 1; k < i; ++k) {
+          FrameRecord& r = records_[k];
+          const double s = (r.timestamp - a.timestamp) / span;
+          r.T_c_r = SE3::exp(motion.log() * s) * T_a_w * T_w_ref;
+          r.reference = a.reference;
+          r.map_id = a.map_id;
+          interpolated.push_back(r.frame_id);
+          ++interpolated_poses_;
+        }
+      }
+    }
+    before = i;
+  }
+  return interpolated;
 }
 
 void Tracker::pushHistory(const map::Frame& frame, const map::Keyframe* reference, const SE3& T_c_r) {
@@ -1077,7 +1134,7 @@ std::optional<std::vector<map::FeatureStatus>> Tracker::mappableStatus(const map
   return std::nullopt;
 }
 
-map::Keyframe* Tracker::createKeyframe(map::Frame& frame, int inliers) {
+map::Keyframe* Tracker::createKeyframe(map::Frame& frame, int inliers, bool hold_pose) {
   map::Keyframe* kf = nullptr;
   // The mapping margin's dilation is computed before taking the lock.
   const std::optional<std::vector<map::FeatureStatus>> mappable = mappableStatus(frame, inliers);
@@ -1087,6 +1144,7 @@ map::Keyframe* Tracker::createKeyframe(map::Frame& frame, int inliers) {
     std::unique_lock lock(map_.mutex());
     kf = map_.createKeyframe(frame.id, frame.timestamp, frame.image_name, frame.features, status,
                              halfDepthFor(frame), frame.T_c_w, active_map_);
+    kf->pose_held = hold_pose;
     for (size_t i = 0; i < frame.matches.size(); ++i) {
       map::MapPoint* p = frame.matches[i].point;
       if (status[i] != map::FeatureStatus::kStatic) continue;

@@ -85,8 +85,10 @@ struct TrackingOptions {
   // optimisation gives a pose, with no prediction needed. With at least this many inliers the
   // local-map search starts from that pose; if it still finds too few map points, the frame keeps
   // the odometry pose (report: "odometry"; counted as tracked) and the next frame goes on from it.
-  // Such a frame makes no keyframe: a keyframe placed by odometry alone, with few points shared
-  // with the map, was moved 8 cm by bundle adjustment on a fr1_desk composite. 0 = off.
+  // Such a frame makes a keyframe only in a young map (atlas.young_map_keyframes), which would
+  // otherwise not grow; one sharing fewer than 20 map points with the map has its pose held (local
+  // bundle adjustment keeps it fixed and culling keeps it): held by nothing else, one was moved
+  // 8 cm by bundle adjustment on a fr1_desk composite. 0 = off.
   int odometry_min_inliers = 30;
 
   static constexpr const char* kSection = "tracking";

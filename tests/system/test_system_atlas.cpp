@@ -101,10 +101,12 @@ void coveredCameraStartsASecondMapThatIsMergedBack(bool deterministic) {
   EXPECT_GE(atlas["maps_started"].get<int>(), 2) << "a second map after the cover";
   EXPECT_GE(atlas["merges"].get<int>(), 1);
   EXPECT_EQ(liveMaps(run.statistics), 1u);
-  // Every uncovered frame (but a few right after the cover) has a pose in the one world; the
-  // first frames of the cover get the motion prediction (tracking.predict_through_loss_s).
-  const size_t uncovered = kFrames - (kCoverLast - kCoverFirst + 1);
-  EXPECT_GE(run.main_map.size(), uncovered - 3);
+  // Every frame has a pose in the one world: the first frames of the cover get the motion
+  // prediction (tracking.predict_through_loss_s); once the merge has brought the second map into
+  // the first, the rest are interpolated between the last predicted and the first tracked one
+  // (Tracker::interpolateAcrossMerges).
+  EXPECT_EQ(run.main_map.size(), kFrames);
+  EXPECT_GT(run.statistics["counts"]["interpolated_poses"].get<int>(), 0);
   for (size_t i = kCoverLast + 1; i < kCoverLast + 4; ++i) EXPECT_TRUE(run.tracked[i]) << "frame " << i;
   const int predicted = run.statistics["counts"]["predicted_poses"].get<int>();
   EXPECT_GT(predicted, 0);
@@ -122,7 +124,8 @@ void coveredCameraStartsASecondMapThatIsMergedBack(bool deterministic) {
   std::printf("ATE over the %zu tracked frames %.2f mm (all %.2f mm)\n", tracked.size(),
               1000 * tracked_ate.translation_m.rmse, 1000 * ate.translation_m.rmse);
   EXPECT_LT(tracked_ate.translation_m.rmse, 0.01);
-  EXPECT_LT(ate.translation_m.rmse, 0.03);
+  // All frames, the 30 covered ones too: those are guesses (the camera turned round unseen).
+  EXPECT_LT(ate.translation_m.rmse, 0.04);
 }
 
 TEST(SystemAtlas, CoveredCameraStartsASecondMapThatIsMergedBack) { coveredCameraStartsASecondMapThatIsMergedBack(true); }

@@ -380,6 +380,74 @@ TEST(TrackerOdometry, CarriesTrackingWhenTheMapGivesNoPoseAndRefusesADisagreeing
   }
 }
 
+// Where a young map gives nothing (a new view), a keyframe made at the odometry pose lets it grow
+// there: the frames after it are tracked by the map again. Sharing few map points, bundle
+// adjustment could move it anywhere; its pose is held (Keyframe::pose_held) while local BA refines
+// the keyframes built on it. A grown map gets no keyframe from an odometry pose.
+void odometryKeyframe(bool young) {
+  constexpr int kAfter = 4;
+  const int before = young ? 3 : kSpeedFrames;  // frames tracked before the map gives nothing
+  const Trajectory path = sim::sweepPath(before + 1 + kAfter, baseOptions().camera.fps);
+  const auto expectedTcw = [&](int i) { return (path.front().T_w_c.inverse() * path[i].T_w_c).inverse(); };
+  SystemOptions options = baseOptions();
+  options.tracking.close_depth = options.tracking.min_depth;  // no visual-odometry points in the motion model
+  options.atlas.enabled = false;
+  options.tracking.keyframe_translation = 0.0;  // every frame that moved is a keyframe
+  options.tracking.crowded_keyframe_spacing = 0;
+  options.tracking.keyframe_still_translation = 0.0;
+  options.tracking.keyframe_still_rotation_deg = 0.0;
+  ASSERT_EQ(options.atlas.young_map_keyframes, 5);
+  Rig rig(options);
+  for (int i = 0; i < before; ++i) {
+    map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
+    ASSERT_TRUE(rig.track(frame).tracked) << "frame " << i;
+  }
+  // A few points stay: too few to track with, enough to tie the new keyframe to older ones that
+  // local BA then holds fixed (so that nothing but pose_held keeps it from being moved).
+  {
+    std::unique_lock lock(rig.map().mutex());
+    ASSERT_EQ(rig.map().keyframeCount() < 5, young);
+    for (map::MapPoint* p : rig.map().points()) p->bad = p->id % 50 != 0;
+  }
+  map::Frame first = rig.render(path[before].T_w_c, path[before].timestamp, static_cast<uint64_t>(before));
+  const TrackOutcome odometry = rig.track(first);
+  ASSERT_TRUE(odometry.odometry);
+  EXPECT_LT(cameraDistance(first.T_c_w, expectedTcw(before)), 0.01);
+  if (!young) {
+    EXPECT_EQ(odometry.new_keyframe, nullptr);
+    return;
+  }
+  ASSERT_NE(odometry.new_keyframe, nullptr);
+  const map::Keyframe* held = odometry.new_keyframe;
+  SE3 held_T_c_w;
+  {
+    std::shared_lock lock(rig.map().mutex());
+    EXPECT_TRUE(held->pose_held);
+    held_T_c_w = held->T_c_w;
+  }
+  int keyframes_after = 0;
+  for (int i = before + 1; i <= before + kAfter; ++i) {
+    map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
+    const TrackOutcome outcome = rig.track(frame);
+    EXPECT_TRUE(outcome.tracked) << "frame " << i;
+    EXPECT_FALSE(outcome.odometry) << "frame " << i;  // the held keyframe's points give the pose
+    // About 100 points from one keyframe (no close points beyond the nearest 100 here) hold the
+    // first frames to a centimetre or two.
+    EXPECT_LT(cameraDistance(frame.T_c_w, expectedTcw(i)), 0.02) << "frame " << i;
+    if (outcome.new_keyframe != nullptr) {
+      ++keyframes_after;
+      std::shared_lock lock(rig.map().mutex());
+      EXPECT_FALSE(outcome.new_keyframe->pose_held) << "frame " << i;
+    }
+  }
+  EXPECT_GE(keyframes_after, 2);  // local BA ran with the held keyframe in its window
+  std::shared_lock lock(rig.map().mutex());
+  EXPECT_EQ(held->T_c_w.matrix(), held_T_c_w.matrix());
+}
+
+TEST(TrackerOdometry, InAYoungMapAKeyframeAtAnOdometryPoseHoldsItsPoseAndTheMapGrowsFromIt) { odometryKeyframe(true); }
+TEST(TrackerOdometry, AGrownMapGetsNoKeyframeFromAnOdometryPose) { odometryKeyframe(false); }
+
 // ---------------------------------------------------------------------------------------------
 // Mapping margin
 
