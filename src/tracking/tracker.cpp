@@ -110,7 +110,11 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     ok = trackWithMotionModel(frame);
     outcome.used_motion_model = ok;
   }
-  if (!ok) ok = trackReferenceKeyframe(frame);
+  const char* first_estimate = ok ? "motion model" : nullptr;  // where the pose came from (debug log)
+  if (!ok) {
+    ok = trackReferenceKeyframe(frame);
+    if (ok) first_estimate = "reference keyframe";
+  }
   const bool recovering = state_ == TrackingState::kLost;
   if (!ok && recovering) {
     // The place may be anywhere in the map: ask the BoW database; the newest keyframes remain a
@@ -120,13 +124,17 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
       outcome.relocalisation = r;
       if (r.success) {
         ok = true;
+        first_estimate = "relocalisation";
         reference_keyframe_ = r.keyframe;
         ++relocalisations_;
       }
     }
     // relocalisation.enabled = false turns every way back into an old map off (the atlas then
     // starts a new map).
-    if (!ok && options_.relocalisation.enabled) ok = trackRecentKeyframes(frame);
+    if (!ok && options_.relocalisation.enabled) {
+      ok = trackRecentKeyframes(frame);
+      if (ok) first_estimate = "recent keyframes";
+    }
   }
   // No pose from the map: frame-to-frame odometry needs no prediction. A camera turning fast while
   // walkers cover most of the view outruns the motion model's window and leaves the reference
@@ -138,6 +146,7 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
       frame.T_c_w = odometry->T_c_w;
       frame.matches = odometry->matches;
       ok = true;
+      first_estimate = "odometry";
     }
   }
   // Too few features outside the mask for a first estimate (a person filling the view): fall
@@ -261,9 +270,9 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   if (recovering)
     spdlog::debug("tracking: frame {} tracked again after {:.3f} s, {} inliers ({}{})", frame.id,
                   frame.timestamp - last_frame_.timestamp, inliers,
-                  outcome.used_motion_model ? "motion model" : outcome.relocalisation && outcome.relocalisation->success
-                                                                     ? "relocalisation"
-                                                                     : "keyframe or last-pose search",
+                  first_estimate != nullptr ? first_estimate
+                  : search_last_pose       ? "local map around the last pose"
+                                           : "motion prediction",
                   back_in_last_map ? ", same map" : "");
   state_ = TrackingState::kOk;
   frame.has_pose = true;
