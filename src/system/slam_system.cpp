@@ -435,18 +435,15 @@ void SlamSystem::finish(const FinishControl& control) {
   }
   // All merges are done: frames without a pose between two with one that ended in one map get
   // poses between those (tracking::Tracker::interpolateAcrossMerges).
-  const std::vector<uint64_t> interpolated = tracker_.interpolateAcrossMerges();
-  if (!interpolated.empty()) {
-    std::map<uint64_t, int> map_of;
-    for (const tracking::FrameRecord& r : tracker_.records()) map_of[r.frame_id] = r.map_id;
-    for (uint64_t id : interpolated)
-      if (id < frames_.size()) {
-        frames_[id].interpolated = true;
-        frames_[id].map = map_of[id];
-      }
+  const std::vector<tracking::FrameRecord> interpolated = tracker_.interpolateAcrossMerges();
+  for (const tracking::FrameRecord& r : interpolated)
+    if (r.frame_id < frames_.size()) {  // frames_[i] is frame i's
+      frames_[r.frame_id].interpolated = true;
+      frames_[r.frame_id].map = r.map_id;
+    }
+  if (!interpolated.empty())
     spdlog::debug("finish: {} frames interpolated between poses that merges brought into one map",
                   interpolated.size());
-  }
   stage("dense");
   if (dense_) dense_->waitUntilIdle();
   rethrowWorkerFailure();

@@ -303,10 +303,12 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     std::shared_lock lock(map_.mutex());
     may_make_keyframe =
         map_.keyframeCount(active_map_) < static_cast<size_t>(options_.atlas.young_map_keyframes);
-    const auto shared = std::count_if(frame.matches.begin(), frame.matches.end(), [](const map::FeatureMatch& m) {
-      return m.point != nullptr && !m.point->bad && !m.outlier;
-    });
-    hold_pose = shared < kMinOdometryKeyframeMapPoints;
+    if (may_make_keyframe) {
+      const auto shared = std::count_if(frame.matches.begin(), frame.matches.end(), [](const map::FeatureMatch& m) {
+        return m.point != nullptr && !m.point->bad && !m.outlier;
+      });
+      hold_pose = shared < kMinOdometryKeyframeMapPoints;
+    }
   }
   if (may_make_keyframe && needKeyframe(frame, inliers, mapping_idle, mapping_backlog))
     outcome.new_keyframe = createKeyframe(frame, inliers, hold_pose);
@@ -426,8 +428,8 @@ void Tracker::settle(const map::Frame& found, const std::optional<StampedPose>& 
                   frames.size(), outcome.backfilled.size(), outcome.interpolated.size());
 }
 
-std::vector<uint64_t> Tracker::interpolateAcrossMerges() {
-  std::vector<uint64_t> interpolated;
+std::vector<FrameRecord> Tracker::interpolateAcrossMerges() {
+  std::vector<FrameRecord> interpolated;
   const double max_span_s = 2 * options_.tracking.backfill_max_s;
   if (max_span_s <= 0) return interpolated;
   std::shared_lock lock(map_.mutex());
@@ -449,7 +451,7 @@ std::vector<uint64_t> Tracker::interpolateAcrossMerges() {
           r.T_c_r = SE3::exp(motion.log() * s) * T_a_w * T_w_ref;
           r.reference = a.reference;
           r.map_id = a.map_id;
-          interpolated.push_back(r.frame_id);
+          interpolated.push_back(r);
           ++interpolated_poses_;
         }
       }

@@ -87,8 +87,8 @@ class Tracker {
   // settle() can do this only when the camera is found again in the map it was lost in. Predicted
   // poses stay: replacing them too was tried, and the first frames of a merged map can be further
   // off than the prediction (13 cm on a fr1_xyz composite, making its ATE worse in 3 of 5 runs).
-  // Returns the frame ids.
-  std::vector<uint64_t> interpolateAcrossMerges();
+  // Returns their new records.
+  std::vector<FrameRecord> interpolateAcrossMerges();
   int mapsStarted() const { return maps_started_; }           // maps of the atlas this tracker started
   int initialisationsRefused() const { return initialisations_refused_; }  // frames too weak to start a map
   int activeMap() const { return active_map_; }               // -1 before the first map

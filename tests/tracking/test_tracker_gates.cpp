@@ -380,6 +380,16 @@ TEST(TrackerOdometry, CarriesTrackingWhenTheMapGivesNoPoseAndRefusesADisagreeing
   }
 }
 
+// Every tracked frame that moved makes a keyframe (pose-change criterion with no threshold).
+SystemOptions keyframeEveryFrameOptions() {
+  SystemOptions o = baseOptions();
+  o.tracking.keyframe_translation = 0.0;
+  o.tracking.crowded_keyframe_spacing = 0;  // these tests cover wide masks: no crowded-view spacing
+  o.tracking.keyframe_still_translation = 0.0;
+  o.tracking.keyframe_still_rotation_deg = 0.0;
+  return o;
+}
+
 // Where a young map gives nothing (a new view), a keyframe made at the odometry pose lets it grow
 // there: the frames after it are tracked by the map again. Sharing few map points, bundle
 // adjustment could move it anywhere; its pose is held (Keyframe::pose_held) while local BA refines
@@ -389,13 +399,9 @@ void odometryKeyframe(bool young) {
   const int before = young ? 3 : kSpeedFrames;  // frames tracked before the map gives nothing
   const Trajectory path = sim::sweepPath(before + 1 + kAfter, baseOptions().camera.fps);
   const auto expectedTcw = [&](int i) { return (path.front().T_w_c.inverse() * path[i].T_w_c).inverse(); };
-  SystemOptions options = baseOptions();
+  SystemOptions options = keyframeEveryFrameOptions();
   options.tracking.close_depth = options.tracking.min_depth;  // no visual-odometry points in the motion model
   options.atlas.enabled = false;
-  options.tracking.keyframe_translation = 0.0;  // every frame that moved is a keyframe
-  options.tracking.crowded_keyframe_spacing = 0;
-  options.tracking.keyframe_still_translation = 0.0;
-  options.tracking.keyframe_still_rotation_deg = 0.0;
   ASSERT_EQ(options.atlas.young_map_keyframes, 5);
   Rig rig(options);
   for (int i = 0; i < before; ++i) {
@@ -453,16 +459,6 @@ TEST(TrackerOdometry, AGrownMapGetsNoKeyframeFromAnOdometryPose) { odometryKeyfr
 
 constexpr int kMarginFrames = 6;  // frames 0..4 without mask, frame 5 with one
 constexpr int kMarginPx = 40;
-
-// Every tracked frame that moved makes a keyframe (pose-change criterion with no threshold).
-SystemOptions keyframeEveryFrameOptions() {
-  SystemOptions o = baseOptions();
-  o.tracking.keyframe_translation = 0.0;
-  o.tracking.crowded_keyframe_spacing = 0;  // these tests cover wide masks: no crowded-view spacing
-  o.tracking.keyframe_still_translation = 0.0;
-  o.tracking.keyframe_still_rotation_deg = 0.0;
-  return o;
-}
 
 cv::Mat columnsMask(int width, int height, int from, int to) {
   cv::Mat mask(height, width, CV_8U, cv::Scalar(0));
