@@ -18,6 +18,13 @@ struct AtlasOptions {
   // Relocalisation (against every map) is tried for this long after a loss; then a new map starts
   // at the current frame. 0: at the first frame relocalisation fails.
   double new_map_after_lost_s = 0.1;
+  // A new map starting at most this long after the last tracked frame first drops the static
+  // features that the last map's reference keyframe saw through (dynamic::freeSpaceViolations at
+  // the bridged pose; dynamic modes full and geometric): a person filling
+  // the view is often missed by the network (a torso close up), and a map started on them tracks
+  // the person (fr1_xyz composite: a map started on an unmasked sweater, its frames 8-15 cm off
+  // after the merge). The bridged pose is a few centimetres off within this time. 0 = never.
+  double start_free_space_check_s = 0.6;
   // A map lost before it has this many keyframes gets no relocalisation time: a new one starts at
   // once (a young map has too little to relocalise against).
   int young_map_keyframes = 5;
@@ -35,7 +42,7 @@ struct AtlasOptions {
   template <class V> void fields(V& v) {
     v("enabled", enabled); v("min_initial_features", min_initial_features);
     v("min_initial_cells", min_initial_cells); v("new_map_after_lost_s", new_map_after_lost_s);
-    v("young_map_keyframes", young_map_keyframes);
+    v("start_free_space_check_s", start_free_space_check_s); v("young_map_keyframes", young_map_keyframes);
     v("merge_min_consistent_keyframes", merge_min_consistent_keyframes);
     v("merge_match_keyframes", merge_match_keyframes);
   }

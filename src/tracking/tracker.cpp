@@ -242,6 +242,7 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     const bool predict = had_motion && reference_keyframe_ != nullptr &&
                          frame.timestamp - last_frame_.timestamp <= options_.tracking.predict_through_loss_s;
     if ((!predict || young) && shouldStartNewMap(frame, young)) {
+      dropWhatTheLastMapSawThrough(frame, outcome);
       // A start that will be refused (a covered camera) must not cost the bridge its velocity.
       if (!predict || canStartMap(frame, camera_, options_.atlas)) resetForNewMap();
       if (initialize(frame, outcome, young ? "young map lost" : "lost")) return outcome;
@@ -467,6 +468,42 @@ void Tracker::pushHistory(const map::Frame& frame, const map::Keyframe* referenc
   while (history_.size() > 1 &&
          frame.timestamp - history_[1].frame.timestamp >= options_.dynamic.stage1_min_interval_s)
     history_.pop_front();
+}
+
+void Tracker::dropWhatTheLastMapSawThrough(map::Frame& frame, TrackOutcome& outcome) {
+  if (!stage1_enabled_ || last_reference_ == nullptr) return;
+  const double since_s = frame.timestamp - last_frame_.timestamp;
+  if (!(since_s >= 0) || since_s > options_.atlas.start_free_space_check_s) return;
+  std::vector<uint8_t> test(frame.status.size(), 0);
+  int tested = 0;
+  for (size_t i = 0; i < frame.status.size(); ++i)
+    if (frame.usable(i) && frame.features->hasDepth(i)) {
+      test[i] = 1;
+      ++tested;
+    }
+  dynamic::FreeSpaceInput input;
+  input.current = frame.features.get();
+  input.depth_scale = 2;
+  input.test = &test;
+  std::vector<uint8_t> moved;
+  {
+    std::shared_lock lock(map_.mutex());
+    if (last_reference_->bad || last_reference_->half_depth.empty()) return;
+    input.reference_depth = &last_reference_->half_depth;
+    input.T_ref_k = last_reference_->T_c_w * bridgedPose(frame.timestamp).inverse();
+    moved = dynamic::freeSpaceViolations(input, camera_, options_.dynamic);
+  }
+  int removed = 0;
+  for (size_t i = 0; i < moved.size(); ++i) {
+    if (!moved[i]) continue;
+    frame.status[i] = map::FeatureStatus::kDynamicStage1;
+    ++removed;
+  }
+  outcome.stage1_removed += removed;
+  outcome.free_space_removed += removed;
+  spdlog::debug("tracking: frame {} ({:.3f} s after the last tracked frame): {} of {} static depth-backed features "
+                "lie where the last map's keyframe saw farther",
+                frame.id, since_s, removed, tested);
 }
 
 bool Tracker::shouldStartNewMap(const map::Frame& frame, bool young_map) const {

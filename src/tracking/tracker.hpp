@@ -108,6 +108,9 @@ class Tracker {
   // Lost: whether relocalisation had its time (or the map is too young to wait for) and a new map
   // should start at this frame.
   bool shouldStartNewMap(const map::Frame& frame, bool young_map) const;
+  // Before a new map starts shortly after a loss (atlas.start_free_space_check_s): static features
+  // the last map's reference keyframe saw through, at the bridged pose, become dynamic (see there).
+  void dropWhatTheLastMapSawThrough(map::Frame& frame, TrackOutcome& outcome);
   // Forgets the motion and local map of the map tracking left (a new one starts).
   void resetForNewMap();
   bool trackWithMotionModel(map::Frame& frame);
