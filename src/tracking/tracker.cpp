@@ -59,6 +59,13 @@ void keepUnverifiedMaskedFeaturesOut(map::Frame& frame) {
   for (auto& status : frame.status)
     if (status == map::FeatureStatus::kPendingStage1) status = map::FeatureStatus::kDynamicMask;
 }
+
+// Share of the frame's features inside its person mask (0 without a mask).
+double maskedShare(const map::Frame& frame) {
+  if (frame.dynamic_mask.empty() || frame.features->size() == 0) return 0.0;
+  const std::vector<uint8_t> in_mask = dynamic::featuresInMask(*frame.features, frame.dynamic_mask);
+  return static_cast<double>(std::count(in_mask.begin(), in_mask.end(), uint8_t{1})) / static_cast<double>(in_mask.size());
+}
 }  // namespace
 
 Tracker::Tracker(const TrackerOptions& options, const PinholeCamera& camera, map::Map& map,
@@ -229,6 +236,7 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
       lost_since_ = frame.timestamp;
     }
     state_ = TrackingState::kLost;
+    odometry_only_since_.reset();
     // The velocity stays for tracking.predict_through_loss_s (see above); stage 1 must not compare with frames
     // from before the gap.
     history_.clear();
@@ -299,11 +307,18 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   // there a keyframe at an odometry pose that a walker's coherent motion had carried (22 cm off
   // with 107 inliers) corrupted it. Sharing few map points, bundle adjustment could move it
   // anywhere (8 cm on another composite): its pose is then held (Keyframe::pose_held).
+  // A grown map left behind for tracking.odometry_keyframe_after_s grows again from a view the
+  // mask shows nearly free of people.
+  if (!outcome.odometry) odometry_only_since_.reset();
+  else if (!odometry_only_since_) odometry_only_since_ = frame.timestamp;
   bool may_make_keyframe = true, hold_pose = false;
   if (outcome.odometry) {
+    const double after_s = options_.tracking.odometry_keyframe_after_s;
+    const bool left_behind = after_s > 0 && frame.timestamp - *odometry_only_since_ >= after_s &&
+                             maskedShare(frame) <= options_.tracking.odometry_keyframe_max_masked_share;
     std::shared_lock lock(map_.mutex());
     may_make_keyframe =
-        map_.keyframeCount(active_map_) < static_cast<size_t>(options_.atlas.young_map_keyframes);
+        left_behind || map_.keyframeCount(active_map_) < static_cast<size_t>(options_.atlas.young_map_keyframes);
     if (may_make_keyframe) {
       const auto shared = std::count_if(frame.matches.begin(), frame.matches.end(), [](const map::FeatureMatch& m) {
         return m.point != nullptr && !m.point->bad && !m.outlier;

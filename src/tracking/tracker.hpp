@@ -241,6 +241,7 @@ class Tracker {
   int initialisations_refused_ = 0;
   int active_map_ = -1;         // the atlas map tracking works in (its live id after merges)
   Timestamp lost_since_ = 0;    // timestamp of the first lost frame of the current loss
+  std::optional<Timestamp> odometry_only_since_;  // first frame of the current run of odometry-only poses
   std::optional<Relocaliser> relocaliser_;
 };
 

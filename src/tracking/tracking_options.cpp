@@ -29,6 +29,8 @@ void TrackingOptions::validate() const {
   requireThat(odometry_min_inliers == 0 || (odometry_min_inliers >= 6 && odometry_min_inliers <= 10000), s,
               "odometry_min_inliers",
               "is " + std::to_string(odometry_min_inliers) + "; expected 0 (off) or 6-10000 (PnP needs 6 points)");
+  requireInRange(s, "odometry_keyframe_after_s", odometry_keyframe_after_s, 0.0, 60.0);
+  requireInRange(s, "odometry_keyframe_max_masked_share", odometry_keyframe_max_masked_share, 0.0, 1.0);
 }
 
 void RelocalisationOptions::validate() const {

@@ -90,6 +90,15 @@ struct TrackingOptions {
   // bundle adjustment keeps it fixed and culling keeps it): held by nothing else, one was moved
   // 8 cm by bundle adjustment on a fr1_desk composite. 0 = off.
   int odometry_min_inliers = 30;
+  // A grown map the camera has left behind: after odometry alone has tracked for this long
+  // (seconds; 0 = never), a frame with at most odometry_keyframe_max_masked_share of its features in
+  // the person mask makes a keyframe at its odometry pose too (held as above when it shares few map
+  // points). Otherwise such a map never grows again: on a fr1_desk composite 100 frames (3.4 s) with
+  // 450-750 static features, people gone from the view, were tracked by odometry alone until the
+  // track was lost. The mask share keeps out the views where a walker's coherent motion can carry
+  // the odometry (22 cm off with 107 inliers on another composite).
+  double odometry_keyframe_after_s = 0.3;
+  double odometry_keyframe_max_masked_share = 0.1;
 
   static constexpr const char* kSection = "tracking";
   template <class V> void fields(V& v) {
@@ -109,6 +118,8 @@ struct TrackingOptions {
     v("crowded_keyframe_spacing", crowded_keyframe_spacing);
     v("vo_check_min_map_inliers", vo_check_min_map_inliers); v("backfill_max_s", backfill_max_s);
     v("odometry_min_inliers", odometry_min_inliers);
+    v("odometry_keyframe_after_s", odometry_keyframe_after_s);
+    v("odometry_keyframe_max_masked_share", odometry_keyframe_max_masked_share);
   }
   void validate() const;
 };

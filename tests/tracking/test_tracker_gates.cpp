@@ -4,7 +4,9 @@
 //  - a short loss is bridged by the average motion of the last 5 tracked frames, and a frame
 //    found again far from that bridge is refused (tracking.max_acceleration_m_s2).
 //  - tracking.odometry_min_inliers: when the map gives no pose, frame-to-frame odometry against
-//    the last tracked frame does (no keyframe from it); a depth that disagrees is refused.
+//    the last tracked frame does; a depth that disagrees is refused. A keyframe at an odometry pose
+//    only in a young map, or after tracking.odometry_keyframe_after_s of odometry alone from a view
+//    the mask leaves nearly free.
 //  - Frame::mapping_margin_px: a keyframe maps nothing within that many pixels of the dynamic
 //    mask, and is not made when fewer than 100 mappable features remain.
 // dynamic.mode "off": stage 1/2 leave the statuses alone, so the tests set them as they need.
@@ -380,6 +382,8 @@ TEST(TrackerOdometry, CarriesTrackingWhenTheMapGivesNoPoseAndRefusesADisagreeing
   }
 }
 
+cv::Mat columnsMask(int width, int height, int from, int to);
+
 // Every tracked frame that moved makes a keyframe (pose-change criterion with no threshold).
 SystemOptions keyframeEveryFrameOptions() {
   SystemOptions o = baseOptions();
@@ -393,16 +397,31 @@ SystemOptions keyframeEveryFrameOptions() {
 // Where a young map gives nothing (a new view), a keyframe made at the odometry pose lets it grow
 // there: the frames after it are tracked by the map again. Sharing few map points, bundle
 // adjustment could move it anywhere; its pose is held (Keyframe::pose_held) while local BA refines
-// the keyframes built on it. A grown map gets no keyframe from an odometry pose.
-void odometryKeyframe(bool young) {
+// the keyframes built on it. A grown map gets no keyframe from an odometry pose until odometry alone
+// has tracked for tracking.odometry_keyframe_after_s (the map was left behind), and then only from
+// a view with at most odometry_keyframe_max_masked_share of its features in the person mask.
+enum class OdometryMap { kYoung, kGrown, kGrownMasked };
+
+void odometryKeyframe(OdometryMap kind) {
   constexpr int kAfter = 4;
+  const bool young = kind == OdometryMap::kYoung;
   const int before = young ? 3 : kSpeedFrames;  // frames tracked before the map gives nothing
-  const Trajectory path = sim::sweepPath(before + 1 + kAfter, baseOptions().camera.fps);
-  const auto expectedTcw = [&](int i) { return (path.front().T_w_c.inverse() * path[i].T_w_c).inverse(); };
   SystemOptions options = keyframeEveryFrameOptions();
   options.tracking.close_depth = options.tracking.min_depth;  // no visual-odometry points in the motion model
   options.atlas.enabled = false;
   ASSERT_EQ(options.atlas.young_map_keyframes, 5);
+  ASSERT_EQ(options.tracking.odometry_keyframe_after_s, 0.3);
+  ASSERT_EQ(options.tracking.odometry_keyframe_max_masked_share, 0.1);
+  // Frames tracked by odometry alone up to the one that may make a keyframe: the first whose time
+  // since the first is at least 0.3 s (the 10th or 11th at 30 frames/s, as the time stamps round),
+  // in a grown map; the first, in a young map.
+  const Trajectory path = sim::sweepPath(before + 12 + kAfter, baseOptions().camera.fps);
+  int odometry_frames = 1;
+  while (!young && path[before + odometry_frames - 1].timestamp - path[before].timestamp <
+                       options.tracking.odometry_keyframe_after_s)
+    ++odometry_frames;
+  ASSERT_GE(odometry_frames, young ? 1 : 10);
+  const auto expectedTcw = [&](int i) { return (path.front().T_w_c.inverse() * path[i].T_w_c).inverse(); };
   Rig rig(options);
   for (int i = 0; i < before; ++i) {
     map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
@@ -415,16 +434,24 @@ void odometryKeyframe(bool young) {
     ASSERT_EQ(rig.map().keyframeCount() < 5, young);
     for (map::MapPoint* p : rig.map().points()) p->bad = p->id % 50 != 0;
   }
-  map::Frame first = rig.render(path[before].T_w_c, path[before].timestamp, static_cast<uint64_t>(before));
-  const TrackOutcome odometry = rig.track(first);
-  ASSERT_TRUE(odometry.odometry);
-  EXPECT_LT(cameraDistance(first.T_c_w, expectedTcw(before)), 0.01);
-  if (!young) {
-    EXPECT_EQ(odometry.new_keyframe, nullptr);
-    return;
+  const map::Keyframe* held = nullptr;
+  for (int i = before; i < before + odometry_frames; ++i) {
+    map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
+    // A person mask over a quarter of the view (dynamic.mode off: the features stay static).
+    if (kind == OdometryMap::kGrownMasked) 
+      frame.dynamic_mask = columnsMask(options.camera.width, options.camera.height, 0, options.camera.width / 4);
+    const TrackOutcome odometry = rig.track(frame);
+    ASSERT_TRUE(odometry.odometry) << "frame " << i;
+    EXPECT_LT(cameraDistance(frame.T_c_w, expectedTcw(i)), 0.01) << "frame " << i;
+    const bool last = i == before + odometry_frames - 1;
+    if (!last || kind == OdometryMap::kGrownMasked) {
+      EXPECT_EQ(odometry.new_keyframe, nullptr) << "frame " << i;
+    } else {
+      ASSERT_NE(odometry.new_keyframe, nullptr) << "frame " << i;
+      held = odometry.new_keyframe;
+    }
   }
-  ASSERT_NE(odometry.new_keyframe, nullptr);
-  const map::Keyframe* held = odometry.new_keyframe;
+  if (kind == OdometryMap::kGrownMasked) return;
   SE3 held_T_c_w;
   {
     std::shared_lock lock(rig.map().mutex());
@@ -432,7 +459,7 @@ void odometryKeyframe(bool young) {
     held_T_c_w = held->T_c_w;
   }
   int keyframes_after = 0;
-  for (int i = before + 1; i <= before + kAfter; ++i) {
+  for (int i = before + odometry_frames; i < before + odometry_frames + kAfter; ++i) {
     map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
     const TrackOutcome outcome = rig.track(frame);
     EXPECT_TRUE(outcome.tracked) << "frame " << i;
@@ -451,8 +478,15 @@ void odometryKeyframe(bool young) {
   EXPECT_EQ(held->T_c_w.matrix(), held_T_c_w.matrix());
 }
 
-TEST(TrackerOdometry, InAYoungMapAKeyframeAtAnOdometryPoseHoldsItsPoseAndTheMapGrowsFromIt) { odometryKeyframe(true); }
-TEST(TrackerOdometry, AGrownMapGetsNoKeyframeFromAnOdometryPose) { odometryKeyframe(false); }
+TEST(TrackerOdometry, InAYoungMapAKeyframeAtAnOdometryPoseHoldsItsPoseAndTheMapGrowsFromIt) {
+  odometryKeyframe(OdometryMap::kYoung);
+}
+TEST(TrackerOdometry, AGrownMapLeftBehindForAThirdOfASecondGrowsFromAnOdometryPose) {
+  odometryKeyframe(OdometryMap::kGrown);
+}
+TEST(TrackerOdometry, AGrownMapGetsNoKeyframeFromAnOdometryPoseWhereTheMaskCoversAQuarter) {
+  odometryKeyframe(OdometryMap::kGrownMasked);
+}
 
 // ---------------------------------------------------------------------------------------------
 // Mapping margin
