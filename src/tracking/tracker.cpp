@@ -300,15 +300,15 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     velocity_ = frame.T_c_w * last_frame_.T_c_w.inverse();
     velocity_interval_s_ = frame.timestamp - last_frame_.timestamp;
   }
-  // A keyframe at an odometry pose only in a young map (atlas.young_map_keyframes), where the
+  // A keyframe at an odometry pose in a young map (atlas.young_map_keyframes), where the
   // alternative is a map that never grows: tracking left its only keyframe behind (a fr1_desk
   // composite: 110 frames tracked by odometry alone, 100-390 inliers each, in a map of one keyframe
-  // that place recognition could never find). In a grown map the next frames still have the map;
+  // that place recognition could never find). In a grown map the next frames usually find the map;
   // there a keyframe at an odometry pose that a walker's coherent motion had carried (22 cm off
   // with 107 inliers) corrupted it. Sharing few map points, bundle adjustment could move it
   // anywhere (8 cm on another composite): its pose is then held (Keyframe::pose_held).
-  // A grown map left behind for tracking.odometry_keyframe_after_s grows again from a view the
-  // mask shows nearly free of people.
+  // A grown map left behind (odometry alone for tracking.odometry_keyframe_after_s) grows again
+  // from a view the mask shows nearly free of people.
   if (!outcome.odometry) odometry_only_since_.reset();
   else if (!odometry_only_since_) odometry_only_since_ = frame.timestamp;
   bool may_make_keyframe = true, hold_pose = false;

@@ -438,7 +438,7 @@ void odometryKeyframe(OdometryMap kind) {
   for (int i = before; i < before + odometry_frames; ++i) {
     map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
     // A person mask over a quarter of the view (dynamic.mode off: the features stay static).
-    if (kind == OdometryMap::kGrownMasked) 
+    if (kind == OdometryMap::kGrownMasked)
       frame.dynamic_mask = columnsMask(options.camera.width, options.camera.height, 0, options.camera.width / 4);
     const TrackOutcome odometry = rig.track(frame);
     ASSERT_TRUE(odometry.odometry) << "frame " << i;
