@@ -1027,11 +1027,9 @@ bool Tracker::needKeyframe(const map::Frame& frame, int inliers, bool mapping_id
   const uint64_t since_last = frame.id - last_keyframe_frame_id_;
   if (static_cast<int>(since_last) < t.min_frames_between_keyframes) return false;
   // A crowded view: keyframes spaced out (see tracking.crowded_keyframe_spacing).
-  if (static_cast<int>(since_last) < t.crowded_keyframe_spacing && !frame.dynamic_mask.empty()) {
-    const std::vector<uint8_t> in_mask = dynamic::featuresInMask(*frame.features, frame.dynamic_mask);
-    const auto covered = std::count(in_mask.begin(), in_mask.end(), uint8_t{1});
-    if (covered >= t.crowded_view_share * static_cast<double>(in_mask.size())) return false;
-  }
+  if (static_cast<int>(since_last) < t.crowded_keyframe_spacing && !frame.dynamic_mask.empty() &&
+      maskedShare(frame) >= t.crowded_view_share)
+    return false;
 
   int reference_tracked = 0;
   SE3 T_c_lastkf;

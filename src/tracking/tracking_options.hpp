@@ -86,17 +86,17 @@ struct TrackingOptions {
   // local-map search starts from that pose; if it still finds too few map points, the frame keeps
   // the odometry pose (report: "odometry"; counted as tracked) and the next frame goes on from it.
   // Such a frame makes a keyframe only in a young map (atlas.young_map_keyframes), which would
-  // otherwise not grow, or in a map left behind (below); one sharing fewer than 20 map points with the map has its pose held (local
-  // bundle adjustment keeps it fixed and culling keeps it): held by nothing else, one was moved
-  // 8 cm by bundle adjustment on a fr1_desk composite. 0 = off.
+  // otherwise not grow, or in a map left behind (below); one sharing fewer than 20 map points with
+  // the map has its pose held (local bundle adjustment keeps it fixed and culling keeps it): held by
+  // nothing else, one was moved 8 cm by bundle adjustment on a fr1_desk composite. 0 = off.
   int odometry_min_inliers = 30;
   // A grown map the camera has left behind: after odometry alone has tracked for this long
   // (seconds; 0 = never), a frame with at most odometry_keyframe_max_masked_share of its features in
   // the person mask makes a keyframe at its odometry pose too (held as above when it shares few map
   // points). Otherwise such a map never grows again: on a fr1_desk composite 100 frames (3.4 s) with
   // 450-750 static features, some with no person found by the network, were tracked by odometry
-  // alone until the track was lost. The mask share keeps out the views where a walker's coherent motion can carry
-  // the odometry (22 cm off with 107 inliers on another composite).
+  // alone until the track was lost. The mask share keeps out the views where a walker's coherent
+  // motion can carry the odometry (22 cm off with 107 inliers on another composite).
   double odometry_keyframe_after_s = 0.3;
   double odometry_keyframe_max_masked_share = 0.1;
 
