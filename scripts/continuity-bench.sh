@@ -101,11 +101,12 @@ def has_pose(f):
     return t if isinstance(t, bool) else None
 
 def posed_at_the_time(f):
-    # A pose settled afterwards (tracked backwards, or interpolated on a frame that had none) does
+    # A pose settled afterwards (tracked or predicted backwards, or interpolated on a frame that had none) does
     # not say that tracking had come back at that frame.
     if not has_pose(f):
         return False
-    return not (f.get("backfilled") is True or (f.get("interpolated") is True and f.get("predicted") is not True))
+    return not (f.get("backfilled") is True or f.get("predicted_backwards") is True or
+                (f.get("interpolated") is True and f.get("predicted") is not True))
 
 def all_rows(run_dir):
     path = os.path.join(run_dir, "CameraTrajectory_all.txt")

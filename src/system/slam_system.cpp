@@ -291,6 +291,7 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   };
   settled(outcome.backfilled, &FrameStats::backfilled);
   settled(outcome.interpolated, &FrameStats::interpolated);
+  markPredictedBackwards(outcome);
 
   if (outcome.new_keyframe != nullptr) {
     stats.keyframe = true;
@@ -324,6 +325,14 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   previous_processing_ms_ = stats.total_ms - stats.mask_wait_ms;
   frames_.push_back(stats);
   rethrowWorkerFailure();
+}
+
+void SlamSystem::markPredictedBackwards(const tracking::TrackOutcome& outcome) {
+  for (uint64_t id : outcome.predicted_backwards)
+    if (id < frames_.size()) {  // frames_[i] is frame i's
+      frames_[id].predicted_backwards = true;
+      frames_[id].map = outcome.predicted_backwards_map;
+    }
 }
 
 void SlamSystem::applyKeyframeMask(map::Keyframe* kf) {
@@ -433,6 +442,11 @@ void SlamSystem::finish(const FinishControl& control) {
     ba.threads = 2;  // nothing else runs now but the dense thread finishing its queue
     final_ba_ = optim::globalBundleAdjustment(map_, camera_, ba, control.abort);
   }
+  // Frames still waiting for the motion after their loss (the run ended within
+  // kBridgeVelocityFrames frames of it) get what there is.
+  tracking::TrackOutcome last_outcome;
+  tracker_.finishBackwardPrediction(last_outcome);
+  markPredictedBackwards(last_outcome);
   // All merges are done: frames without a pose between two with one that ended in one map get
   // poses between those (tracking::Tracker::interpolateAcrossMerges).
   const std::vector<tracking::FrameRecord> interpolated = tracker_.interpolateAcrossMerges();
@@ -610,7 +624,7 @@ nlohmann::json SlamSystem::statistics() const {
                          {"static_with_depth", f.static_with_depth},
                          {"weak", f.weak}, {"odometry", f.odometry}, {"predicted", f.predicted},
                          {"backfilled", f.backfilled},
-                         {"interpolated", f.interpolated}});
+                         {"interpolated", f.interpolated}, {"predicted_backwards", f.predicted_backwards}});
     if (f.reloc_candidates >= 0)
       per_frame.back()["relocalisation"] = {{"candidates", f.reloc_candidates}, {"best_matches", f.reloc_matches},
                                             {"best_pnp_inliers", f.reloc_pnp_inliers},
@@ -636,6 +650,7 @@ nlohmann::json SlamSystem::statistics() const {
                    {"predicted_poses", tracker_.predictedPoses()},
                    {"backfilled_poses", tracker_.backfilledPoses()},
                    {"interpolated_poses", tracker_.interpolatedPoses()},
+                   {"backward_predicted_poses", tracker_.backwardPredictedPoses()},
                    {"keyframes", map_.keyframeCount()},
                    {"keyframes_created", map_.allKeyframes().size()},
                    {"map_points", map_.pointCount()}};

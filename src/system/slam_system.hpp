@@ -98,6 +98,7 @@ struct FrameStats {
   bool predicted = false;     // not tracked: the motion prediction is its pose (tracking.predict_through_loss_s)
   bool backfilled = false;    // not tracked then: a later frame's tracking gave it a pose (tracking.backfill_max_s)
   bool interpolated = false;  // not tracked then: its pose lies between the frames tracked before and after
+  bool predicted_backwards = false;  // not tracked then: the motion after it, extrapolated (tracking.predict_back_s)
   // Relocalisation attempt on this frame (lost): candidates tried, best descriptor matches, PnP
   // inliers, pose inliers (-1: not attempted).
   int reloc_candidates = -1, reloc_matches = -1, reloc_pnp_inliers = -1, reloc_inliers = -1;
@@ -168,6 +169,8 @@ class SlamSystem {
   // when the keyframe's own mask was requested, waits for it, and the features in it (dilated as
   // at the keyframe's creation) become dynamic; their points lose this observation.
   void applyKeyframeMask(map::Keyframe* kf);
+  // Flags the frames the outcome predicted backwards (tracking.predict_back_s) in frames_.
+  void markPredictedBackwards(const tracking::TrackOutcome& outcome);
   // The live map holding the most tracked frames (-1: none). Map lock held shared.
   int mainMapLocked() const;
   // Throws WorkerError for the first failed worker thread, once (later calls return).

@@ -231,6 +231,8 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   outcome.odometry = ok && odometry_only;
   if (outcome.odometry) ++odometry_poses_;
   if (!ok) {
+    // The run of frames tracked after an earlier loss ends here: their motion is all there is.
+    predictBackwards(outcome, /*track_ended=*/true);
     if (state_ == TrackingState::kOk) {
       ++losses_;
       lost_since_ = frame.timestamp;
@@ -349,6 +351,7 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     if (recovering && back_in_last_map) before_loss = StampedPose{last_frame_.timestamp, last_frame_.T_c_w.inverse()};
     settle(frame, before_loss, outcome);
   }
+  predictBackwards(outcome, /*track_ended=*/false);
   // Visual-odometry matches only serve the next frame's motion-model search.
   last_frame_ = frame;
   pushHistory(frame, reference_keyframe_, last_T_c_r_);
@@ -356,7 +359,8 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
 }
 
 void Tracker::keepUnsettled(const map::Frame& frame, bool predicted) {
-  if (options_.tracking.backfill_max_s <= 0) return;
+  const double keep_s = std::max(options_.tracking.backfill_max_s, options_.tracking.predict_back_s);
+  if (keep_s <= 0) return;
   UnsettledFrame kept{frame, predicted, predicted ? active_map_ : -1};
   kept.frame.depth = cv::Mat();  // the features hold their depth; the image may be the caller's buffer
   kept.frame.dynamic_mask = cv::Mat();
@@ -366,7 +370,7 @@ void Tracker::keepUnsettled(const map::Frame& frame, bool predicted) {
   if (!unsettled_.empty() && unsettled_.back().frame.timestamp >= t) unsettled_.clear();
   unsettled_.push_back(std::move(kept));
   // Older ones cannot be reached from a frame tracked again (see settle()).
-  while (unsettled_.front().frame.timestamp < t - 2 * options_.tracking.backfill_max_s) unsettled_.pop_front();
+  while (unsettled_.front().frame.timestamp < t - 2 * keep_s) unsettled_.pop_front();
 }
 
 void Tracker::settle(const map::Frame& found, const std::optional<StampedPose>& before_loss, TrackOutcome& outcome) {
@@ -439,10 +443,64 @@ void Tracker::settle(const map::Frame& found, const std::optional<StampedPose>& 
       ++interpolated_poses_;
     }
   }
-  if (!outcome.backfilled.empty() || !outcome.interpolated.empty())
-    spdlog::debug("tracking: frame {} settled {} earlier frames: {} backfilled, {} interpolated", found.id,
-                  frames.size(), outcome.backfilled.size(), outcome.interpolated.size());
+  // 3. The frames still without a pose just before the oldest one settled (no feature search
+  // reached them: a crowd, motion blur, a covered lens) wait for the motion after it.
+  BackwardPrediction waiting{{}, next.id};
+  for (; it != frames.rend(); ++it) {
+    if (it->predicted || next.timestamp - it->frame.timestamp > options_.tracking.predict_back_s) break;
+    waiting.frames.emplace_back(it->frame.id, it->frame.timestamp);
+  }
+  if (!waiting.frames.empty()) backward_prediction_ = std::move(waiting);
+  if (!outcome.backfilled.empty() || !outcome.interpolated.empty() || backward_prediction_)
+    spdlog::debug("tracking: frame {} settled {} earlier frames: {} backfilled, {} interpolated, {} wait for the "
+                  "motion after frame {}", found.id, frames.size(), outcome.backfilled.size(),
+                  outcome.interpolated.size(), backward_prediction_ ? backward_prediction_->frames.size() : 0,
+                  backward_prediction_ ? backward_prediction_->anchor_frame_id : next.id);
 }
+
+void Tracker::predictBackwards(TrackOutcome& outcome, bool track_ended) {
+  if (!backward_prediction_) return;
+  // The anchor's record and those of the frames tracked right after it (records_ is in frame order).
+  auto anchor = std::find_if(records_.rbegin(), records_.rend(), [&](const FrameRecord& r) {
+    return r.frame_id == backward_prediction_->anchor_frame_id;
+  });
+  if (anchor == records_.rend()) {
+    backward_prediction_.reset();
+    return;
+  }
+  const auto first = anchor.base() - 1;
+  auto last = first;
+  while (last + 1 != records_.end() && last + 1 - first <= static_cast<std::ptrdiff_t>(kBridgeVelocityFrames) &&
+         (last + 1)->reference != nullptr)
+    ++last;
+  const auto tracked_after = last - first;
+  if (!track_ended && tracked_after < static_cast<std::ptrdiff_t>(kBridgeVelocityFrames)) return;
+  const BackwardPrediction waiting = std::move(*backward_prediction_);
+  backward_prediction_.reset();
+  // One step's motion is too noisy to extrapolate over a third of a second.
+  if (tracked_after < 2 || !(last->timestamp - first->timestamp > 1e-6)) return;
+  std::shared_lock lock(map_.mutex());
+  const map::Keyframe* reference = first->reference;
+  const int map_id = first->map_id;  // the anchor's, as it was tracked
+  const SE3 T_w_r = map::keyframeTcw(reference).inverse();
+  const SE3 T0 = first->T_c_r * map::keyframeTcw(reference);
+  const SE3 motion = last->T_c_r * map::keyframeTcw(last->reference) * T0.inverse();
+  const double span_s = last->timestamp - first->timestamp;
+  for (const auto& [frame_id, timestamp] : waiting.frames) {
+    auto r = std::find_if(records_.rbegin(), records_.rend(),
+                          [&](const FrameRecord& record) { return record.frame_id == frame_id; });
+    if (r == records_.rend() || r->reference != nullptr) continue;
+    const SE3 T_c_w = SE3::exp(motion.log() * ((timestamp - first->timestamp) / span_s)) * T0;
+    *r = {frame_id, timestamp, reference, T_c_w * T_w_r, map_id};
+    outcome.predicted_backwards.push_back(frame_id);
+    ++backward_predicted_poses_;
+  }
+  outcome.predicted_backwards_map = map_id;
+  spdlog::debug("tracking: {} frames before frame {} predicted backwards from the motion over the {} frames after it",
+                outcome.predicted_backwards.size(), waiting.anchor_frame_id, tracked_after);
+}
+
+void Tracker::finishBackwardPrediction(TrackOutcome& outcome) { predictBackwards(outcome, /*track_ended=*/true); }
 
 std::vector<FrameRecord> Tracker::interpolateAcrossMerges() {
   std::vector<FrameRecord> interpolated;

@@ -52,6 +52,10 @@ struct TrackOutcome {
   // the loss and them (found again in the same map).
   std::vector<uint64_t> backfilled;
   std::vector<uint64_t> interpolated;
+  // Earlier frames of a loss given the motion after it, extrapolated backwards
+  // (tracking.predict_back_s), in map predicted_backwards_map.
+  std::vector<uint64_t> predicted_backwards;
+  int predicted_backwards_map = -1;
   std::optional<RelocalisationResult> relocalisation;  // when the relocaliser was asked
 };
 
@@ -81,6 +85,10 @@ class Tracker {
   int backfilledPoses() const { return backfilled_poses_; }  // frames tracked backwards afterwards
   int odometryPoses() const { return odometry_poses_; }  // frames whose pose came from odometry alone
   int interpolatedPoses() const { return interpolated_poses_; }  // frames interpolated afterwards
+  int backwardPredictedPoses() const { return backward_predicted_poses_; }  // tracking.predict_back_s
+  // The end of a run: frames still waiting for the motion after their loss
+  // (tracking.predict_back_s) get the motion of the frames tracked since, when at least two were.
+  void finishBackwardPrediction(TrackOutcome& outcome);
   // The end of a run, all merges done (no frame is being tracked): frames without a pose between
   // two frames with one (tracked, or predicted through a loss) that ended in the same map, at most
   // twice tracking.backfill_max_s apart, get poses interpolated between those two. Online,
@@ -133,6 +141,18 @@ class Tracker {
   // that lie after before_loss (the last tracked frame, given when `found` is in its map) are
   // interpolated between it and the oldest one settled. Clears them.
   void settle(const map::Frame& found, const std::optional<StampedPose>& before_loss, TrackOutcome& outcome);
+  // Frames settle() left without a pose, just before the oldest frame it gave one (the anchor),
+  // waiting for the motion of the frames tracked after the anchor (tracking.predict_back_s).
+  struct BackwardPrediction {
+    std::vector<std::pair<uint64_t, Timestamp>> frames;  // frame id, timestamp
+    uint64_t anchor_frame_id = 0;
+  };
+  std::optional<BackwardPrediction> backward_prediction_;
+  // Gives backward_prediction_'s frames their poses: the motion from the anchor over the
+  // kBridgeVelocityFrames frames tracked after it, extrapolated back from the anchor's pose. Waits
+  // for those frames unless `track_ended` (lost again, or the run is over): then at least two
+  // frames after the anchor must have been tracked, or the frames keep no pose.
+  void predictBackwards(TrackOutcome& outcome, bool track_ended);
   bool trackReferenceKeyframe(map::Frame& frame);
   // Frame-to-frame odometry against last_frame_ (tracking.odometry_min_inliers): descriptor
   // matches of the frame's static features with the last frame's depth-backed ones, then
@@ -238,6 +258,7 @@ class Tracker {
   int backfilled_poses_ = 0;
   int odometry_poses_ = 0;
   int interpolated_poses_ = 0;
+  int backward_predicted_poses_ = 0;
   int initialisations_refused_ = 0;
   int active_map_ = -1;         // the atlas map tracking works in (its live id after merges)
   Timestamp lost_since_ = 0;    // timestamp of the first lost frame of the current loss

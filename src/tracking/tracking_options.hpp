@@ -77,6 +77,14 @@ struct TrackingOptions {
   // tracked before the loss, the rest between the two (up to twice this long) are interpolated
   // between them (report: "interpolated"). 0 = neither.
   double backfill_max_s = 1.0;
+  // The frames of a loss still without a pose after that, at most this long before the oldest
+  // frame given one after the loss (seconds; 0 = off), get the motion of the frames tracked right
+  // after it, extrapolated backwards (report: "predicted_backwards"): the mirror of
+  // predict_through_loss_s, for the frames before a map could start (the first frames of a run, or
+  // a new map's after a loss) that no feature search reaches. They get it once
+  // kBridgeVelocityFrames frames after that one have poses (or the track is lost again after at
+  // least two), in that frame's map. Nothing is tracked from these poses: they are not in the map.
+  double predict_back_s = 0.3;
   // When the map does not give a pose (motion model, reference keyframe, relocalisation), the
   // frame's static features are matched by descriptor against the last tracked frame's
   // depth-backed ones (its map points, else its depth) within a window around the same pixel,
@@ -117,6 +125,7 @@ struct TrackingOptions {
     v("search_last_pose_when_lost", search_last_pose_when_lost);
     v("crowded_keyframe_spacing", crowded_keyframe_spacing);
     v("vo_check_min_map_inliers", vo_check_min_map_inliers); v("backfill_max_s", backfill_max_s);
+    v("predict_back_s", predict_back_s);
     v("odometry_min_inliers", odometry_min_inliers);
     v("odometry_keyframe_after_s", odometry_keyframe_after_s);
     v("odometry_keyframe_max_masked_share", odometry_keyframe_max_masked_share);

@@ -219,7 +219,7 @@ TEST(SystemAtlas, WithoutTheFreeSpaceCheckAMapStartsOnTheBoard) { boardInFrontMi
 void firstFramesWithoutAMapStartAreBackfilled(bool backfill) {
   constexpr size_t kWithoutStart = 9, kFrames = 60;
   SystemOptions options = test::syntheticSystemOptions();
-  if (!backfill) options.tracking.backfill_max_s = 0;
+  if (!backfill) options.tracking.backfill_max_s = options.tracking.predict_back_s = 0;
   const sim::SyntheticScene scene(sim::SceneOptions{}, options.camera);
   const Trajectory path = sim::sweepPath(kFrames, options.camera.fps);
   const AtlasRun run = runAtlas(
@@ -256,6 +256,49 @@ void firstFramesWithoutAMapStartAreBackfilled(bool backfill) {
 TEST(SystemAtlas, FirstFramesWithoutAMapStartAreBackfilled) { firstFramesWithoutAMapStartAreBackfilled(true); }
 TEST(SystemAtlas, FirstFramesWithoutAMapStartHaveNoPoseWithoutBackfill) {
   firstFramesWithoutAMapStartAreBackfilled(false);
+}
+
+// The first frames are black with no depth (a lens cap, a person right in front of the camera)
+// while the camera already sweeps: no feature search can reach them, from the map that starts
+// after them either. They get the motion of the first frames tracked after them, extrapolated
+// backwards (tracking.predict_back_s), as poses in that map; with it off they have none.
+void coveredFirstFramesArePredictedBackwards(bool predict_back) {
+  constexpr size_t kCovered = 7, kFrames = 40;
+  SystemOptions options = test::syntheticSystemOptions();
+  if (!predict_back) options.tracking.predict_back_s = 0;
+  const sim::SyntheticScene scene(sim::SceneOptions{}, options.camera);
+  const Trajectory path = sim::sweepPath(kFrames, options.camera.fps);
+  const AtlasRun run = runAtlas(scene, path, options, coveredLens(0, kCovered - 1), noFrameWithheld);
+  const eval::AteResult ate = eval::computeAte(path, run.main_map);
+  double worst_m = 0;
+  size_t covered_with_pose = 0;
+  for (const StampedPose& p : run.main_map)
+    for (size_t i = 0; i < kCovered; ++i)
+      if (path[i].timestamp == p.timestamp) {
+        ++covered_with_pose;
+        const Vec3 aligned = ate.T_gt_est * p.T_w_c.translation();
+        worst_m = std::max(worst_m, (aligned - path[i].T_w_c.translation()).norm());
+      }
+  const nlohmann::json& counts = run.statistics["counts"];
+  std::printf("covered first frames, backward prediction %s: %zu of %zu with a pose, predicted backwards %d, "
+              "worst %.1f mm, ATE %.2f mm\n", predict_back ? "on" : "off", covered_with_pose, kCovered,
+              counts["backward_predicted_poses"].get<int>(), 1000 * worst_m, 1000 * ate.translation_m.rmse);
+  for (size_t i = 0; i < kCovered; ++i) EXPECT_FALSE(run.tracked[i]) << "frame " << i;
+  for (size_t i = kCovered; i < kFrames; ++i) EXPECT_TRUE(run.tracked[i]) << "frame " << i;
+  if (!predict_back) {
+    EXPECT_EQ(covered_with_pose, 0u);
+    EXPECT_EQ(counts["backward_predicted_poses"].get<int>(), 0);
+    return;
+  }
+  EXPECT_EQ(covered_with_pose, kCovered);
+  EXPECT_EQ(counts["backward_predicted_poses"].get<int>(), static_cast<int>(kCovered));
+  EXPECT_EQ(run.main_map.size(), kFrames);
+  EXPECT_LT(worst_m, 0.015) << "the sweep's motion, extrapolated 0.23 s back";
+  EXPECT_LT(ate.translation_m.rmse, 0.005);
+}
+TEST(SystemAtlas, CoveredFirstFramesArePredictedBackwards) { coveredFirstFramesArePredictedBackwards(true); }
+TEST(SystemAtlas, CoveredFirstFramesHaveNoPoseWithoutBackwardPrediction) {
+  coveredFirstFramesArePredictedBackwards(false);
 }
 
 // The lens is covered (black, no depth) for 0.23 s while the camera doubles its speed: the frames
