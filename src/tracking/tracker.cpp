@@ -630,17 +630,6 @@ bool Tracker::initialize(map::Frame& frame, TrackOutcome& outcome, const char* r
     }
     return false;
   }
-  // The new map's bridge (bridgedPose) goes on with the motion of the frames tracked before, in the
-  // map left: their poses re-expressed in the new world through this frame's bridged pose (a
-  // camera-frame motion is the same in either world). Left in the old world, they would be averaged
-  // with the new map's poses (a motion between two worlds) until kBridgeVelocityFrames frames later.
-  // A start long after them (atlas.start_free_space_check_s) keeps nothing of them.
-  std::deque<RecentPose> carried;
-  if (state_ != TrackingState::kNotInitialized && recent_poses_.size() >= 2 &&
-      frame.timestamp - last_frame_.timestamp <= options_.atlas.start_free_space_check_s) {
-    const SE3 T_wold_wnew = bridgedPose(frame.timestamp).inverse();  // this camera is the new world
-    for (const RecentPose& r : recent_poses_) carried.push_back({r.timestamp, nullptr, SE3(), r.T_c_w * T_wold_wnew});
-  }
   frame.T_c_w = SE3::identity();
   frame.has_pose = true;
   map::Keyframe* kf = nullptr;
@@ -666,9 +655,6 @@ bool Tracker::initialize(map::Frame& frame, TrackOutcome& outcome, const char* r
   last_T_c_r_ = SE3::identity();
   last_frame_ = frame;
   velocity_.reset();
-  recent_poses_ = std::move(carried);
-  recent_poses_.push_back({frame.timestamp, kf, SE3::identity(), frame.T_c_w});
-  while (recent_poses_.size() > kBridgeVelocityFrames + 1) recent_poses_.pop_front();
   pushHistory(frame, kf, SE3::identity());
   records_.push_back({frame.id, frame.timestamp, kf, SE3::identity(), active_map_});
   ++maps_started_;

@@ -212,8 +212,7 @@ class Tracker {
   // The last tracked frames' poses (oldest first): the motion bridged through a loss is their
   // average over kBridgeVelocityFrames, not the last step's, which walkers crossing the view just
   // before the loss disturb most. Each pose follows its reference keyframe (as history_ does):
-  // a merge or loop correction between two of them would otherwise count as camera motion. Poses
-  // carried over from the map left when a new one starts have none (fixed in the new world).
+  // a merge or loop correction between two of them would otherwise count as camera motion.
   struct RecentPose {
     Timestamp timestamp = 0;
     const map::Keyframe* reference = nullptr;
