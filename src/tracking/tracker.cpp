@@ -302,6 +302,14 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     velocity_ = frame.T_c_w * last_frame_.T_c_w.inverse();
     velocity_interval_s_ = frame.timestamp - last_frame_.timestamp;
   }
+  // Tracking continues in the map the pose came from: relocalisation may have found the camera in
+  // another map of the atlas, and the keyframe decision below (and the keyframe) belong to that map.
+  // (Before, a keyframe made at such a frame joined the lost map with a pose in the other map's
+  // world: a 1.6 m jump inside one map on an fr1_desk composite.)
+  {
+    std::shared_lock lock(map_.mutex());
+    active_map_ = reference_keyframe_->map_id;
+  }
   // A keyframe at an odometry pose in a young map (atlas.young_map_keyframes), where the
   // alternative is a map that never grows: tracking left its only keyframe behind (a fr1_desk
   // composite: 110 frames tracked by odometry alone, 100-390 inliers each, in a map of one keyframe
@@ -336,10 +344,6 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     last_T_c_r_ = frame.T_c_w * reference_keyframe_->T_c_w.inverse();
   }
   last_reference_ = reference_keyframe_;
-  {
-    std::shared_lock lock(map_.mutex());
-    active_map_ = reference_keyframe_->map_id;
-  }
   records_.push_back({frame.id, frame.timestamp, reference_keyframe_, last_T_c_r_, active_map_});
   if (!recent_poses_.empty() && recent_poses_.back().timestamp >= frame.timestamp) recent_poses_.clear();
   if (recovering) recent_poses_.clear();  // the frames before the gap may be in another map

@@ -134,6 +134,67 @@ TEST(SystemAtlas, CoveredCameraStartsASecondMapThatIsMergedBack) { coveredCamera
 // while tracking goes on (Map::worldGate; run under ThreadSanitizer too).
 TEST(SystemAtlas, CoveredCameraMergeWithMappingAndLoopThreads) { coveredCameraStartsASecondMapThatIsMergedBack(false); }
 
+// The camera maps one side of the room, is covered while it turns round, and starts a second map
+// facing the other side (as above); then it is covered again while it turns back and is uncovered
+// facing the first side, which only the first map holds. Relocalisation finds it there: tracking
+// must go on in the first map, and the keyframe made at that frame belongs to it. (A keyframe that
+// joined the lost map instead carried the first map's world into it: the rest of the run was
+// tracked in the lost map, 1.6 m off, on an fr1_desk composite.)
+TEST(SystemAtlas, RelocalisedIntoAnOlderMapTrackingGoesOnInThatMap) {
+  const SystemOptions options = test::syntheticSystemOptions();
+  const sim::SyntheticScene scene(sim::SceneOptions{}, options.camera);
+  constexpr double kPi = 3.14159265358979323846;
+  const double fps = options.camera.fps;
+  // 0-89: a lap facing the mapped side; 90-119: covered; 120-179: facing the other side, moving
+  // sideways 1 cm a frame (the second map grows past atlas.young_map_keyframes, so the tracker
+  // stays in it when it is lost); 180-194: covered; 195-254: the first lap's start again.
+  constexpr size_t kSecondFirst = 120, kSecondCoverFirst = 180, kBackFirst = 195, kFrames = 255;
+  const Trajectory lap = sim::loopPath(90, fps, 1);
+  Trajectory path(lap.begin(), lap.end());
+  const Vec3 start = lap.front().T_w_c.translation();
+  for (size_t i = path.size(); i < kFrames; ++i) {
+    const double t = lap.front().timestamp + i / fps;
+    const double sideways_m = i >= kSecondFirst && i < kSecondCoverFirst ? 0.01 * (i - kSecondFirst) : 0.0;
+    path.push_back({t, i >= kBackFirst ? lap[i - kBackFirst].T_w_c
+                                       : SE3(sim::lookRotation(kPi, -0.21, 0.0), start + Vec3(sideways_m, 0, 0))});
+  }
+  const auto first_cover = coveredLens(90, 119);
+  const auto second_cover = coveredLens(kSecondCoverFirst, kBackFirst - 1);
+  const auto covered = [&](size_t i, sim::RenderedFrame& f) {
+    first_cover(i, f);
+    second_cover(i, f);
+  };
+  const AtlasRun run = runAtlas(scene, path, options, covered, noFrameWithheld);
+  const nlohmann::json& atlas = run.statistics["atlas"];
+  std::printf("relocalised into the first map: %zu of %zu frames in the main map, relocalisations %d\n%s\n",
+              run.main_map.size(), kFrames, run.statistics["counts"]["relocalisations"].get<int>(),
+              atlas.dump().c_str());
+  ASSERT_GE(atlas["maps_started"].get<int>(), 2) << "a second map facing the other side";
+  // Every frame tracked after the second cover lies in the first frame's map, and is accurate.
+  int first_map = -1;
+  for (const AtlasPose& p : run.all)
+    if (p.timestamp == path.front().timestamp) first_map = p.world_map;
+  ASSERT_GE(first_map, 0);
+  size_t tracked_back = 0, in_first_map = 0;
+  for (size_t i = kBackFirst; i < kFrames; ++i) {
+    if (!run.tracked[i]) continue;
+    ++tracked_back;
+    for (const AtlasPose& p : run.all) in_first_map += p.timestamp == path[i].timestamp && p.world_map == first_map;
+  }
+  EXPECT_GE(tracked_back, kFrames - kBackFirst - 3);
+  ASSERT_EQ(in_first_map, tracked_back) << "frames tracked after the return but not in the first map";
+  // The tracked frames of the first lap and of the return, aligned together: one world.
+  Trajectory tracked;
+  for (const StampedPose& p : run.main_map)
+    for (size_t i = 0; i < path.size(); ++i)
+      if (path[i].timestamp == p.timestamp && run.tracked[i] && (i < 90 || i >= kBackFirst)) tracked.push_back(p);
+  const eval::AteResult ate = eval::computeAte(path, tracked);
+  std::printf("%zu frames tracked after the second cover, all in the first map; ATE over %zu tracked frames %.2f mm\n",
+              tracked_back, tracked.size(), 1000 * ate.translation_m.rmse);
+  EXPECT_EQ(tracked.size(), 90 + tracked_back);
+  EXPECT_LT(ate.translation_m.rmse, 0.01);
+}
+
 // runAtlas() edit: frames first..first+count-1 show a random-textured board 0.6 m from the camera,
 // filling the view and sliding 4 px per frame.
 auto boardInFront(const CameraOptions& camera, size_t first, size_t count) {
