@@ -511,30 +511,36 @@ std::vector<FrameRecord> Tracker::interpolateAcrossMerges() {
   const double max_span_s = 2 * options_.tracking.backfill_max_s;
   if (max_span_s <= 0) return interpolated;
   std::shared_lock lock(map_.mutex());
-  size_t before = records_.size();  // the last record with a pose so far
-  for (size_t i = 0; i < records_.size(); ++i) {
-    if (records_[i].reference == nullptr) continue;
-    if (before < i && i - before > 1) {
-      const FrameRecord& a = records_[before];
-      const FrameRecord& b = records_[i];
-      const double span = b.timestamp - a.timestamp;
-      if (a.reference->map_id == b.reference->map_id && span > 1e-6 && span <= max_span_s) {
-        const SE3 T_a_w = a.T_c_r * map::keyframeTcw(a.reference);
-        const SE3 T_b_w = b.T_c_r * map::keyframeTcw(b.reference);
-        const SE3 motion = T_b_w * T_a_w.inverse();
-        const SE3 T_w_ref = map::keyframeTcw(a.reference).inverse();
-        for (size_t k = before + 1; k < i; ++k) {
-          FrameRecord& r = records_[k];
-          const double s = (r.timestamp - a.timestamp) / span;
-          r.T_c_r = SE3::exp(motion.log() * s) * T_a_w * T_w_ref;
-          r.reference = a.reference;
-          r.map_id = a.map_id;
-          interpolated.push_back(r);
-          ++interpolated_poses_;
-        }
-      }
+  for (size_t i = 1; i < records_.size(); ++i) {
+    // A run of frames without a pose starts at i; `a` is the frame with one before it.
+    if (records_[i].reference != nullptr || records_[i - 1].reference == nullptr) continue;
+    const FrameRecord& a = records_[i - 1];
+    // The next frame with a pose in a's map; frames tracked in another map on the way (a map started
+    // in the loss and lost again, never merged) keep their poses there.
+    size_t j = i + 1;
+    while (j < records_.size() && records_[j].timestamp - a.timestamp <= max_span_s &&
+           (records_[j].reference == nullptr || records_[j].reference->map_id != a.reference->map_id))
+      ++j;
+    if (j == records_.size() || records_[j].reference == nullptr ||
+        records_[j].reference->map_id != a.reference->map_id)
+      continue;
+    const FrameRecord& b = records_[j];
+    const double span = b.timestamp - a.timestamp;
+    if (!(span > 1e-6) || span > max_span_s) continue;
+    const SE3 T_a_w = a.T_c_r * map::keyframeTcw(a.reference);
+    const SE3 T_b_w = b.T_c_r * map::keyframeTcw(b.reference);
+    const SE3 motion = T_b_w * T_a_w.inverse();
+    const SE3 T_w_ref = map::keyframeTcw(a.reference).inverse();
+    for (size_t k = i; k < j; ++k) {
+      FrameRecord& r = records_[k];
+      if (r.reference != nullptr) continue;
+      const double s = (r.timestamp - a.timestamp) / span;
+      r.T_c_r = SE3::exp(motion.log() * s) * T_a_w * T_w_ref;
+      r.reference = a.reference;
+      r.map_id = a.map_id;
+      interpolated.push_back(r);
+      ++interpolated_poses_;
     }
-    before = i;
   }
   return interpolated;
 }

@@ -91,7 +91,8 @@ class Tracker {
   void finishBackwardPrediction(TrackOutcome& outcome);
   // The end of a run, all merges done (no frame is being tracked): frames without a pose between
   // two frames with one (tracked, or predicted through a loss) that ended in the same map, at most
-  // twice tracking.backfill_max_s apart, get poses interpolated between those two. Online,
+  // twice tracking.backfill_max_s apart, get poses interpolated between those two; frames tracked
+  // in another map between them (one started in the loss and lost again) keep theirs. Online,
   // settle() can do this only when the camera is found again in the map it was lost in. Predicted
   // poses stay: replacing them too was tried, and the first frames of a merged map can be further
   // off than the prediction (13 cm on a fr1_xyz composite, making its ATE worse in 3 of 5 runs).

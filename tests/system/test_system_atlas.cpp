@@ -410,6 +410,59 @@ void coveredFramesAreSettledBetweenTheTrackedOnes(bool settle) {
 TEST(SystemAtlas, CoveredFramesAreInterpolatedBetweenTheTrackedOnes) { coveredFramesAreSettledBetweenTheTrackedOnes(true); }
 TEST(SystemAtlas, CoveredFramesKeepThePredictionWithoutSettling) { coveredFramesAreSettledBetweenTheTrackedOnes(false); }
 
+// The lens is covered for longer than the bridge lasts, a textured board then fills the view for
+// two frames (a map starts on it and is lost again; its bridge covers the frames after it), the
+// lens is covered again, and the camera comes back to the mapped room. The frames left without a
+// pose before the board lie between the first map's last bridged frame and its first frame found
+// again: they are interpolated in it, across the board map's frames, which keep their own poses.
+// Without interpolation they have none.
+void framesAroundAShortLivedMapAreInterpolated(bool interpolate) {
+  constexpr size_t kCoverFirst = 50, kBoardFirst = 70, kBoardFrames = 2, kBackFirst = 78, kFrames = 120;
+  SystemOptions options = test::syntheticSystemOptions();
+  options.atlas.start_free_space_check_s = 0;  // the board map must start
+  if (!interpolate) options.tracking.backfill_max_s = 0;
+  const sim::SyntheticScene scene(sim::SceneOptions{}, options.camera);
+  const Trajectory path = sim::sweepPath(kFrames, options.camera.fps);
+  const auto cover_before = coveredLens(kCoverFirst, kBoardFirst - 1);
+  const auto board = boardInFront(options.camera, kBoardFirst, kBoardFrames);
+  const auto cover_after = coveredLens(kBoardFirst + kBoardFrames, kBackFirst - 1);
+  const auto edit = [&](size_t i, sim::RenderedFrame& f) {
+    cover_before(i, f);
+    board(i, f);
+    cover_after(i, f);
+  };
+  const AtlasRun run = runAtlas(scene, path, options, edit, noFrameWithheld);
+  const eval::AteResult ate = eval::computeAte(path, run.main_map);
+  size_t covered_in_main = 0;  // of the frames covered before the board
+  double worst_m = 0;
+  for (const StampedPose& p : run.main_map)
+    for (size_t i = kCoverFirst; i < kBoardFirst; ++i)
+      if (path[i].timestamp == p.timestamp) {
+        ++covered_in_main;
+        const Vec3 aligned = ate.T_gt_est * p.T_w_c.translation();
+        worst_m = std::max(worst_m, (aligned - path[i].T_w_c.translation()).norm());
+      }
+  const nlohmann::json& counts = run.statistics["counts"];
+  std::printf("short-lived map, interpolation %s: maps started %d, %zu of %zu covered frames in the main map "
+              "(interpolated %d, worst %.1f mm), %zu of %zu frames in the main map, ATE %.2f mm\n%s\n",
+              interpolate ? "on" : "off", run.statistics["atlas"]["maps_started"].get<int>(), covered_in_main,
+              kBoardFirst - kCoverFirst, counts["interpolated_poses"].get<int>(), 1000 * worst_m,
+              run.main_map.size(), kFrames, 1000 * ate.translation_m.rmse, run.statistics["atlas"].dump().c_str());
+  ASSERT_GE(run.statistics["atlas"]["maps_started"].get<int>(), 2) << "a map on the board";
+  for (size_t i = kBackFirst + 3; i < kFrames; ++i) EXPECT_TRUE(run.tracked[i]) << "frame " << i;
+  if (interpolate) {
+    EXPECT_EQ(covered_in_main, kBoardFirst - kCoverFirst);
+    EXPECT_LT(worst_m, 0.05);
+  } else {
+    EXPECT_LT(covered_in_main, kBoardFirst - kCoverFirst);
+  }
+}
+
+TEST(SystemAtlas, FramesAroundAShortLivedMapAreInterpolated) { framesAroundAShortLivedMapAreInterpolated(true); }
+TEST(SystemAtlas, FramesAroundAShortLivedMapHaveNoPoseWithoutInterpolation) {
+  framesAroundAShortLivedMapAreInterpolated(false);
+}
+
 // Sudden jumps (frames withheld) at several places of the second lap: tracking resumes within a
 // few frames after each, and by the end every frame is in one world.
 TEST(SystemAtlas, JumpsAtSeveralPlacesAreRecoveredAndEndInOneMap) {
