@@ -521,12 +521,10 @@ std::vector<FrameRecord> Tracker::interpolateAcrossMerges() {
     while (j < records_.size() && records_[j].timestamp - a.timestamp <= max_span_s &&
            (records_[j].reference == nullptr || records_[j].reference->map_id != a.reference->map_id))
       ++j;
-    if (j == records_.size() || records_[j].reference == nullptr ||
-        records_[j].reference->map_id != a.reference->map_id)
-      continue;
+    if (j == records_.size() || records_[j].timestamp - a.timestamp > max_span_s) continue;
     const FrameRecord& b = records_[j];
     const double span = b.timestamp - a.timestamp;
-    if (!(span > 1e-6) || span > max_span_s) continue;
+    if (!(span > 1e-6)) continue;
     const SE3 T_a_w = a.T_c_r * map::keyframeTcw(a.reference);
     const SE3 T_b_w = b.T_c_r * map::keyframeTcw(b.reference);
     const SE3 motion = T_b_w * T_a_w.inverse();

@@ -60,6 +60,25 @@ auto coveredLens(size_t first, size_t last) {
 }
 bool noFrameWithheld(size_t) { return false; }
 
+// Frames first..last-1 of `path` that have a pose in the main map, and the worst of their errors in
+// the world of the whole run (aligned as `ate` aligned every frame).
+struct FramesInMainMap {
+  size_t count = 0;
+  double worst_m = 0;
+};
+FramesInMainMap framesInMainMap(const Trajectory& path, const AtlasRun& run, const eval::AteResult& ate, size_t first,
+                                size_t last) {
+  FramesInMainMap result;
+  for (const StampedPose& p : run.main_map)
+    for (size_t i = first; i < last; ++i)
+      if (path[i].timestamp == p.timestamp) {
+        ++result.count;
+        const Vec3 aligned = ate.T_gt_est * p.T_w_c.translation();
+        result.worst_m = std::max(result.worst_m, (aligned - path[i].T_w_c.translation()).norm());
+      }
+  return result;
+}
+
 size_t liveMaps(const nlohmann::json& statistics) {
   size_t live = 0;
   for (const auto& m : statistics["atlas"]["maps"]) live += m["live"].get<bool>() && m["frames"].get<size_t>() > 0;
@@ -331,15 +350,7 @@ void coveredFirstFramesArePredictedBackwards(bool predict_back) {
   const Trajectory path = sim::sweepPath(kFrames, options.camera.fps);
   const AtlasRun run = runAtlas(scene, path, options, coveredLens(0, kCovered - 1), noFrameWithheld);
   const eval::AteResult ate = eval::computeAte(path, run.main_map);
-  double worst_m = 0;
-  size_t covered_with_pose = 0;
-  for (const StampedPose& p : run.main_map)
-    for (size_t i = 0; i < kCovered; ++i)
-      if (path[i].timestamp == p.timestamp) {
-        ++covered_with_pose;
-        const Vec3 aligned = ate.T_gt_est * p.T_w_c.translation();
-        worst_m = std::max(worst_m, (aligned - path[i].T_w_c.translation()).norm());
-      }
+  const auto [covered_with_pose, worst_m] = framesInMainMap(path, run, ate, 0, kCovered);
   const nlohmann::json& counts = run.statistics["counts"];
   std::printf("covered first frames, backward prediction %s: %zu of %zu with a pose, predicted backwards %d, "
               "worst %.1f mm, ATE %.2f mm\n", predict_back ? "on" : "off", covered_with_pose, kCovered,
@@ -433,15 +444,8 @@ void framesAroundAShortLivedMapAreInterpolated(bool interpolate) {
   };
   const AtlasRun run = runAtlas(scene, path, options, edit, noFrameWithheld);
   const eval::AteResult ate = eval::computeAte(path, run.main_map);
-  size_t covered_in_main = 0;  // of the frames covered before the board
-  double worst_m = 0;
-  for (const StampedPose& p : run.main_map)
-    for (size_t i = kCoverFirst; i < kBoardFirst; ++i)
-      if (path[i].timestamp == p.timestamp) {
-        ++covered_in_main;
-        const Vec3 aligned = ate.T_gt_est * p.T_w_c.translation();
-        worst_m = std::max(worst_m, (aligned - path[i].T_w_c.translation()).norm());
-      }
+  // The frames covered before the board.
+  const auto [covered_in_main, worst_m] = framesInMainMap(path, run, ate, kCoverFirst, kBoardFirst);
   const nlohmann::json& counts = run.statistics["counts"];
   std::printf("short-lived map, interpolation %s: maps started %d, %zu of %zu covered frames in the main map "
               "(interpolated %d, worst %.1f mm), %zu of %zu frames in the main map, ATE %.2f mm\n%s\n",
