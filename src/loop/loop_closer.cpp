@@ -73,13 +73,37 @@ void LoopCloser::notify(const LoopEvent& event) {
 bool LoopCloser::process(map::Keyframe* kf) {
   if (!options_.loop.enabled) return false;
   std::optional<LoopMatch> match = detector_.detect(kf);
+  std::optional<LoopMatch> suggested;
+  {
+    std::lock_guard lock(suggested_mutex_);
+    if (auto it = suggested_.find(kf->id); it != suggested_.end()) {
+      suggested = std::move(it->second);
+      suggested_.erase(it);
+    }
+  }
   {
     std::lock_guard lock(stats_mutex_);
     stats_.detection = detector_.stats();
     if (match) ++stats_.loops_detected;
   }
+  if (!match && suggested) {
+    {
+      std::shared_lock lock(map_.mutex());
+      if (suggested->current->bad || suggested->loop->bad || suggested->current->map_id == suggested->loop->map_id)
+        return false;  // culled, or merged meanwhile
+    }
+    return correctLoop(*suggested);
+  }
   if (!match) return false;
   return correctLoop(*match);
+}
+
+void LoopCloser::suggestMerge(const LoopMatch& match) {
+  LoopMatch suggested = match;
+  suggested.merge = true;
+  suggested.from_tracking = true;
+  std::lock_guard lock(suggested_mutex_);
+  suggested_[match.current->id] = std::move(suggested);
 }
 
 bool LoopCloser::correctLoop(const LoopMatch& match) {
@@ -123,6 +147,7 @@ bool LoopCloser::mergeMaps(LoopMatch& match) {
   merged.loop_keyframe = loop->id;
   merged.timestamp = current->timestamp;
   merged.inliers = match.inliers;
+  merged.found_by_tracking = match.from_tracking;
   map_.mergeMap(merged.from_map, merged.into_map, merged.T_into_from, current->timestamp);
   // One world now: what is left at K is the drift a loop corrects (none right after the move).
   match.T_w_c_corrected = current->T_w_c();

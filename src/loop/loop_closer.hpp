@@ -67,6 +67,7 @@ struct MergedMaps {
   uint64_t current_keyframe = 0, loop_keyframe = 0;
   double timestamp = 0;  // the current keyframe's
   int inliers = 0;
+  bool found_by_tracking = false;  // suggested by tracking (suggestMerge), not found by place recognition
 };
 
 struct LoopClosingStats {
@@ -110,6 +111,10 @@ class LoopCloser {
   bool process(map::Keyframe* kf);
   // Applies a detected loop (exposed for tests that build the match themselves).
   bool correctLoop(const LoopMatch& match);
+  // A merge that tracking found (the camera, tracked in match.current's map, was tracked in
+  // match.loop's map too: tracking::FoundInOtherMap): process(match.current) applies it when place
+  // recognition finds nothing there itself. Any thread; before match.current reaches process().
+  void suggestMerge(const LoopMatch& match);
 
   // Blocks until no global BA is running, or until *abort becomes true (then returns false and the
   // BA may still run: abortGlobalBa() stops it).
@@ -169,6 +174,8 @@ class LoopCloser {
   LoopDetector detector_;
 
   std::mutex correction_mutex_;  // serialises loop corrections and global-BA write-back
+  std::mutex suggested_mutex_;   // guards suggested_ (tracking adds, process() takes)
+  std::map<uint64_t, LoopMatch> suggested_;  // by current keyframe id
   // Loop edges of the essential graph (keyframe pairs), guarded by the Map lock.
   std::vector<std::pair<map::Keyframe*, map::Keyframe*>> loop_edges_;
 

@@ -41,6 +41,7 @@ struct LoopMatch {
   int ransac_inliers = 0;  // from descriptor matching alone
   int inliers = 0;         // after guided search and refit
   bool merge = false;      // the loop keyframe lies in another map of the atlas
+  bool from_tracking = false;  // suggested by tracking (LoopCloser::suggestMerge), not recognised here
 };
 
 struct LoopDetectionStats {

@@ -9,6 +9,7 @@ void AtlasOptions::validate() const {
   requireInRange(s, "new_map_after_lost_s", new_map_after_lost_s, 0.0, 3600.0);
   requireInRange(s, "start_free_space_check_s", start_free_space_check_s, 0.0, 10.0);
   requireInRange(s, "young_map_keyframes", young_map_keyframes, 0, 100000);
+  requireInRange(s, "other_map_search_s", other_map_search_s, 0.0, 3600.0);
   requireInRange(s, "merge_min_consistent_keyframes", merge_min_consistent_keyframes, 1, 100);
   requireInRange(s, "merge_match_keyframes", merge_match_keyframes, 1, 100);
 }

@@ -28,6 +28,13 @@ struct AtlasOptions {
   // A map lost before it has this many keyframes gets no relocalisation time: a new one starts at
   // once (a young map has too little to relocalise against).
   int young_map_keyframes = 5;
+  // For this long after a map starts at a loss (seconds; 0 = off), each frame tracked in it is
+  // also relocalised against the other maps (Tracker::findInOtherMap); found in one twice, at
+  // least 0.15 s apart, with the same transform between the maps, the two are merged by loop
+  // closing at a keyframe made there. A crowd that covered the view for a moment often leaves the
+  // camera where the old map is, but place recognition alone rarely merges a map started in a
+  // crowd: it must recognise two of that map's keyframes in a row.
+  double other_map_search_s = 2.0;
   // A keyframe recognised in another map must recur over this many consecutive keyframes before
   // the maps are merged (loop.min_consistent_keyframes applies to loops within a map).
   int merge_min_consistent_keyframes = 2;
@@ -43,6 +50,7 @@ struct AtlasOptions {
     v("enabled", enabled); v("min_initial_features", min_initial_features);
     v("min_initial_cells", min_initial_cells); v("new_map_after_lost_s", new_map_after_lost_s);
     v("start_free_space_check_s", start_free_space_check_s); v("young_map_keyframes", young_map_keyframes);
+    v("other_map_search_s", other_map_search_s);
     v("merge_min_consistent_keyframes", merge_min_consistent_keyframes);
     v("merge_match_keyframes", merge_match_keyframes);
   }

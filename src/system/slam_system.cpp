@@ -293,6 +293,17 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   settled(outcome.interpolated, &FrameStats::interpolated);
   markPredictedBackwards(outcome);
 
+  if (outcome.found_in_other_map && loop_closer_) {
+    // Before the keyframe reaches loop closing (below, or through local mapping).
+    const tracking::FoundInOtherMap& found = *outcome.found_in_other_map;
+    loop::LoopMatch match;
+    match.current = found.keyframe;
+    match.loop = found.other_reference;
+    match.T_w_c_corrected = found.T_wother_c;
+    match.matched_points = found.other_points;
+    match.ransac_inliers = match.inliers = found.inliers;
+    loop_closer_->suggestMerge(match);
+  }
   if (outcome.new_keyframe != nullptr) {
     stats.keyframe = true;
     // Its mask was another frame's, carried forward (or none had come yet): ask for its own.
@@ -643,6 +654,7 @@ nlohmann::json SlamSystem::statistics() const {
                    {"frames_lost", tracker_.lostFrames()},
                    {"tracking_losses", tracker_.losses()},
                    {"relocalisations", tracker_.relocalisations()},
+                   {"found_in_other_map", tracker_.foundInOtherMap()},
                    {"implausible_jumps_refused", tracker_.implausibleJumps()},
                    {"bridge_disagreements_refused", tracker_.bridgeDisagreements()},
                    {"weak_poses", tracker_.weakPoses()},
@@ -691,6 +703,9 @@ nlohmann::json SlamSystem::statistics() const {
                          {"loops_detected", ls.loops_detected},
                          {"loops_closed", ls.loops_closed},
                          {"merges_detected", ls.detection.merges_detected},
+                         {"merges_found_by_tracking",
+                          std::count_if(ls.merges.begin(), ls.merges.end(),
+                                        [](const loop::MergedMaps& m) { return m.found_by_tracking; })},
                          {"loops_skipped", ls.loops_skipped},
                          {"points_fused", ls.points_fused},
                          {"global_ba_runs", ls.global_ba_runs},

@@ -69,7 +69,7 @@ Relocaliser::Relocaliser(const RelocalisationOptions& options, const PinholeCame
   options_.validate();
 }
 
-RelocalisationResult Relocaliser::relocalise(map::Frame& frame) const {
+RelocalisationResult Relocaliser::relocalise(map::Frame& frame, int only_map) const {
   RelocalisationResult result;
   frame.clearMatches();
   if (database_.size() == 0 || frame.features == nullptr || frame.features->size() == 0) return result;
@@ -77,7 +77,7 @@ RelocalisationResult Relocaliser::relocalise(map::Frame& frame) const {
   if (encoding.bow.empty()) return result;
   const SE3 prior_T_c_w = frame.T_c_w;
 
-  for (map::Keyframe* kf : candidates(encoding.bow)) {
+  for (map::Keyframe* kf : candidates(encoding.bow, only_map)) {
     ++result.candidates;
     const auto matches = matchByNodes(frame, encoding.features, kf);
     result.best_matches = std::max(result.best_matches, static_cast<int>(matches.size()));
@@ -125,8 +125,13 @@ RelocalisationResult Relocaliser::relocalise(map::Frame& frame) const {
   return result;
 }
 
-std::vector<map::Keyframe*> Relocaliser::candidates(const place::BowVector& bow) const {
+std::vector<map::Keyframe*> Relocaliser::candidates(const place::BowVector& bow, int only_map) const {
   std::vector<place::KeyframeCandidate> results = database_.query(bow);
+  if (only_map >= 0) {
+    // Before the bars relative to the best candidate: another map may see the place best.
+    std::shared_lock lock(map_.mutex());
+    std::erase_if(results, [&](const place::KeyframeCandidate& r) { return r.keyframe->map_id != only_map; });
+  }
   if (results.empty()) return {};
   int max_shared = 0;
   for (const auto& r : results) max_shared = std::max(max_shared, r.shared_words);

@@ -53,11 +53,12 @@ class Relocaliser {
   // frame.features and frame.status set (only usable features are matched). On success writes
   // frame.T_c_w and frame.matches (map-point inliers only), ready for local-map tracking; on
   // failure clears frame.matches and leaves frame.T_c_w as it was.
+  // only_map: candidates from this atlas map only (-1: every map).
   // Locks: takes Map::mutex() shared, in short sections; call it without holding the Map lock.
-  RelocalisationResult relocalise(map::Frame& frame) const;
+  RelocalisationResult relocalise(map::Frame& frame, int only_map = -1) const;
 
  private:
-  std::vector<map::Keyframe*> candidates(const place::BowVector& bow) const;
+  std::vector<map::Keyframe*> candidates(const place::BowVector& bow, int only_map) const;
   // Descriptor matches (frame feature, map point) within shared vocabulary nodes.
   std::vector<std::pair<int, map::MapPoint*>> matchByNodes(const map::Frame& frame,
                                                            const place::FeatureVector& frame_nodes,

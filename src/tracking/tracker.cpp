@@ -37,6 +37,13 @@ constexpr size_t kRecoveryKeyframes = 8;   // when lost, the newest keyframes tr
 constexpr double kStillTranslation = 0.005;        // metres per frame below which motion is negligible
 constexpr double kStillRotation = 0.5 * M_PI / 180;  // radians per frame
 constexpr size_t kBridgeVelocityFrames = 5;  // tracked frames whose average motion bridges a loss
+// Another map found again (findInOtherMap) is handed on for merging only when two sightings at
+// least kSightingIntervalS apart give the same transform between the maps: walkers' features that
+// the masks missed can make one consistent-looking pose, but they move on within that time.
+constexpr double kSightingIntervalS = 0.15;
+constexpr double kSightingAgreementM = 0.05;
+constexpr double kSightingAgreementRad = 3.0 * M_PI / 180;
+constexpr size_t kOtherMapsSearched = 3;  // per frame, the largest other maps
 // Frame-to-frame odometry (trackWithOdometry): descriptor matching between consecutive frames,
 // whose descriptors barely change, within a window around the same pixel.
 constexpr int kOdometryMaxDescriptorDistance = 64;
@@ -336,8 +343,24 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
       hold_pose = shared < kMinOdometryKeyframeMapPoints;
     }
   }
-  if (may_make_keyframe && needKeyframe(frame, inliers, mapping_idle, mapping_backlog))
+  // Shortly after a map started at a loss, the camera may still be where another map is (a crowd
+  // covered the view for a moment): a keyframe here then carries what loop closing needs to merge
+  // the two. Place recognition alone rarely merges such a map: it must recognise two of its
+  // keyframes in a row, and one started in a crowd sees little of the static scene.
+  std::optional<OtherMapPose> other;
+  if (!outcome.weak && !outcome.odometry) other = findInOtherMap(frame);
+  if (may_make_keyframe && (other || needKeyframe(frame, inliers, mapping_idle, mapping_backlog)))
     outcome.new_keyframe = createKeyframe(frame, inliers, hold_pose);
+  if (other && outcome.new_keyframe != nullptr) {
+    spdlog::debug("tracking: frame {} (keyframe {}, map {}) found in map {} with {} inliers: handed on for merging",
+                  frame.id, outcome.new_keyframe->id, active_map_, other->reference->map_id, other->inliers);
+    outcome.found_in_other_map =
+        FoundInOtherMap{outcome.new_keyframe, other->reference, other->T_c_wother.inverse(), std::move(other->points),
+                        other->inliers};
+    ++found_in_other_map_;
+    search_other_maps_until_ = 0;
+    first_sighting_.reset();
+  }
 
   {
     std::shared_lock lock(map_.mutex());
@@ -592,6 +615,73 @@ bool Tracker::shouldStartNewMap(const map::Frame& frame, bool young_map) const {
   return young_map || frame.timestamp - lost_since_ >= options_.atlas.new_map_after_lost_s - 1e-6;
 }
 
+std::optional<Tracker::OtherMapPose> Tracker::findInOtherMap(const map::Frame& frame) {
+  if (!relocaliser_ || frame.timestamp > search_other_maps_until_) return std::nullopt;
+  // Each other live map on its own, largest first: candidates are ranked against the best one,
+  // and a map just started in the crowd (its keyframe seeing the same view) would crowd out the
+  // map the camera is still in.
+  std::vector<std::pair<size_t, int>> maps;  // (keyframes, id)
+  {
+    std::shared_lock lock(map_.mutex());
+    for (const map::MapRecord& m : map_.mapRecords())
+      if (m.merged_into < 0 && m.id != active_map_ && map_.keyframeCount(m.id) > 0)
+        maps.emplace_back(map_.keyframeCount(m.id), m.id);
+  }
+  std::sort(maps.begin(), maps.end(), std::greater<>());
+  if (maps.size() > kOtherMapsSearched) maps.resize(kOtherMapsSearched);
+  map::Frame probe = frame;
+  bool relocalised = false;
+  for (const auto& [keyframes, map_id] : maps) {
+    const RelocalisationResult found = relocaliser_->relocalise(probe, map_id);
+    spdlog::debug("tracking: frame {} (map {}) searched in map {}: {} candidates, best {} matches, {} PnP inliers, "
+                  "{} inliers{}", frame.id, active_map_, map_id, found.candidates, found.best_matches,
+                  found.best_pnp_inliers, found.best_inliers, found.success ? ": found" : "");
+    if ((relocalised = found.success)) break;
+  }
+  if (!relocalised) return std::nullopt;
+  // Relocalisation and the local-map search below use the tracker's local map: it goes back after.
+  map::Keyframe* const reference_before = reference_keyframe_;
+  std::vector<map::Keyframe*> local_keyframes_before = local_keyframes_;
+  std::vector<map::MapPoint*> local_points_before = local_points_;
+  const auto restore = [&] {
+    reference_keyframe_ = reference_before;
+    local_keyframes_ = std::move(local_keyframes_before);
+    local_points_ = std::move(local_points_before);
+  };
+  reference_keyframe_ = nullptr;
+  int inliers = 0;
+  bool ok = trackLocalMap(probe, inliers);  // its reference keyframe: the one sharing most points
+  if (ok && stage2_enabled_ && reference_keyframe_ != nullptr) {
+    if (applyStage2(probe) > 0) inliers = optimizeFramePose(probe);
+    ok = inliers >= kMinLocalMapInliersAfterStage2;
+  }
+  map::Keyframe* const other_reference = reference_keyframe_;
+  restore();
+  if (!ok || other_reference == nullptr) return std::nullopt;
+  OtherMapSighting sighting{frame.timestamp, -1, probe.T_c_w.inverse() * frame.T_c_w};
+  {
+    std::shared_lock lock(map_.mutex());
+    sighting.map_id = other_reference->map_id;
+  }
+  if (sighting.map_id == active_map_) return std::nullopt;
+  spdlog::debug("tracking: frame {} (map {}) also found in map {} with {} inliers", frame.id, active_map_,
+                sighting.map_id, inliers);
+  if (!first_sighting_ || first_sighting_->map_id != sighting.map_id) {
+    first_sighting_ = sighting;
+    return std::nullopt;
+  }
+  const SE3 difference = first_sighting_->T_wother_wactive.inverse() * sighting.T_wother_wactive;
+  if (difference.translation().norm() > kSightingAgreementM || difference.rotationAngle() > kSightingAgreementRad) {
+    first_sighting_ = sighting;  // the earlier one may have been the wrong one
+    return std::nullopt;
+  }
+  if (sighting.timestamp - first_sighting_->timestamp < kSightingIntervalS) return std::nullopt;
+  OtherMapPose pose{other_reference, probe.T_c_w, std::vector<map::MapPoint*>(probe.matches.size(), nullptr), inliers};
+  for (size_t i = 0; i < probe.matches.size(); ++i)
+    if (probe.matches[i].point != nullptr && !probe.matches[i].outlier) pose.points[i] = probe.matches[i].point;
+  return pose;
+}
+
 void Tracker::resetForNewMap() {
   velocity_.reset();
   history_.clear();
@@ -666,6 +756,9 @@ bool Tracker::initialize(map::Frame& frame, TrackOutcome& outcome, const char* r
   pushHistory(frame, kf, SE3::identity());
   records_.push_back({frame.id, frame.timestamp, kf, SE3::identity(), active_map_});
   ++maps_started_;
+  // A map started at a loss: the camera may still be where another map is (findInOtherMap()).
+  if (maps_started_ > 1) search_other_maps_until_ = frame.timestamp + options_.atlas.other_map_search_s;
+  first_sighting_.reset();
   outcome.tracked = true;
   outcome.new_keyframe = kf;
   outcome.new_map = true;

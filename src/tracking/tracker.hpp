@@ -34,6 +34,16 @@ struct FrameRecord {
   int map_id = -1;  // the atlas map it was tracked in (-1: none); merges may have moved it since
 };
 
+// The camera, tracked in a map started at a loss, found in another map of the atlas too
+// (atlas.other_map_search_s): what loop closing needs to merge the two, at the keyframe made there.
+struct FoundInOtherMap {
+  map::Keyframe* keyframe = nullptr;         // made at this frame, in the map tracking works in
+  map::Keyframe* other_reference = nullptr;  // the other map's keyframe sharing most points with the frame
+  SE3 T_wother_c;                            // the frame's (and keyframe's) pose in the other map's world
+  std::vector<map::MapPoint*> other_points;  // per feature: the other map's point it matched (inliers), or null
+  int inliers = 0;                           // of the pose in the other map
+};
+
 struct TrackOutcome {
   bool tracked = false;
   int stage1_checked = 0;   // features examined by stage 1 (in the mask, or all in geometric mode)
@@ -57,6 +67,7 @@ struct TrackOutcome {
   std::vector<uint64_t> predicted_backwards;
   int predicted_backwards_map = -1;
   std::optional<RelocalisationResult> relocalisation;  // when the relocaliser was asked
+  std::optional<FoundInOtherMap> found_in_other_map;   // for loop closing to merge the maps
 };
 
 class Tracker {
@@ -77,6 +88,7 @@ class Tracker {
   int lostFrames() const { return lost_frames_; }
   int losses() const { return losses_; }                    // times tracking went from ok to lost
   int relocalisations() const { return relocalisations_; }  // times the relocaliser recovered it
+  int foundInOtherMap() const { return found_in_other_map_; }  // atlas.other_map_search_s: merges handed on
   int implausibleJumps() const { return implausible_jumps_; }  // poses refused by tracking.max_speed_m_s
   // Poses found again after a bridged loss, refused by tracking.max_acceleration_m_s2.
   int bridgeDisagreements() const { return bridge_disagreements_; }
@@ -122,6 +134,24 @@ class Tracker {
   void dropWhatTheLastMapSawThrough(map::Frame& frame, TrackOutcome& outcome);
   // Forgets the motion and local map of the map tracking left (a new one starts).
   void resetForNewMap();
+  // Within atlas.other_map_search_s of a map started at a loss, for a frame tracked in it: the frame
+  // relocalised against the other maps and tracked in the local map of the one it was found in
+  // (with stage 2). Its pose there and matched points once that sighting agrees with an earlier
+  // one (kSightingAgreement*); the tracker's own state is left as it was.
+  struct OtherMapPose {
+    map::Keyframe* reference = nullptr;
+    SE3 T_c_wother;
+    std::vector<map::MapPoint*> points;  // per feature
+    int inliers = 0;
+  };
+  std::optional<OtherMapPose> findInOtherMap(const map::Frame& frame);
+  // The first sighting of the current window that later ones are compared with.
+  struct OtherMapSighting {
+    Timestamp timestamp = 0;
+    int map_id = -1;
+    SE3 T_wother_wactive;
+  };
+  std::optional<OtherMapSighting> first_sighting_;
   bool trackWithMotionModel(map::Frame& frame);
   // Projection candidates from a tracked frame: its matched map points and, for close features
   // without one, visual-odometry points from its depth.
@@ -251,6 +281,7 @@ class Tracker {
   int lost_frames_ = 0;
   int losses_ = 0;
   int relocalisations_ = 0;
+  int found_in_other_map_ = 0;
   int implausible_jumps_ = 0;
   int bridge_disagreements_ = 0;
   int maps_started_ = 0;
@@ -263,6 +294,7 @@ class Tracker {
   int initialisations_refused_ = 0;
   int active_map_ = -1;         // the atlas map tracking works in (its live id after merges)
   Timestamp lost_since_ = 0;    // timestamp of the first lost frame of the current loss
+  Timestamp search_other_maps_until_ = 0;  // findInOtherMap() is tried up to this time
   std::optional<Timestamp> odometry_only_since_;  // first frame of the current run of odometry-only poses
   std::optional<Relocaliser> relocaliser_;
 };

@@ -90,28 +90,33 @@ size_t liveMaps(const nlohmann::json& statistics) {
 // relocalise against, so tracking must start a second map at once. It then turns back to the
 // mapped side, where place recognition must merge the second map into the first: in the end
 // every uncovered frame has a pose in one world, as accurate as an uninterrupted run.
-void coveredCameraStartsASecondMapThatIsMergedBack(bool deterministic) {
-  const SystemOptions options = test::syntheticSystemOptions();
-  const sim::SyntheticScene scene(sim::SceneOptions{}, options.camera);
+// 0-89: a lap facing the mapped side; 90-119: covered (coveredLens); 120-149: facing the other
+// side; 150-239: turning back (90 degrees a second); 240-269: the first lap's start again.
+constexpr size_t kTurnCoverFirst = 90, kTurnCoverLast = 119, kTurnedBack = 240, kCoverTurnFrames = 270;
+Trajectory coverTurnAndComeBackPath(double fps) {
   constexpr double kPi = 3.14159265358979323846;
-  const double fps = options.camera.fps;
-  // 0-89: a lap facing the mapped side; 90-119: covered; 120-149: facing the other side;
-  // 150-239: turning back (90 degrees a second); 240-269: the first lap's start again.
-  constexpr size_t kCoverFirst = 90, kCoverLast = 119, kFrames = 270;
   const Trajectory lap = sim::loopPath(90, fps, 1);
   Trajectory path(lap.begin(), lap.end());
   const Vec3 start = lap.front().T_w_c.translation();
   const double pitch = -0.21;
-  for (size_t i = path.size(); i < kFrames; ++i) {
+  for (size_t i = path.size(); i < kCoverTurnFrames; ++i) {
     const double t = lap.front().timestamp + i / fps;
     double yaw = kPi;
-    if (i >= 150 && i < 240) yaw = kPi * (1.0 - (i - 150) / 90.0);
-    if (i >= 240) yaw = 0;
-    path.push_back({t, i >= 240 ? lap[i - 240].T_w_c
-                                : SE3(sim::lookRotation(yaw, pitch, 0.0), start)});
+    if (i >= 150 && i < kTurnedBack) yaw = kPi * (1.0 - (i - 150) / 90.0);
+    if (i >= kTurnedBack) yaw = 0;
+    path.push_back({t, i >= kTurnedBack ? lap[i - kTurnedBack].T_w_c : SE3(sim::lookRotation(yaw, pitch, 0.0), start)});
   }
+  return path;
+}
+
+void coveredCameraStartsASecondMapThatIsMergedBack(bool deterministic) {
+  const SystemOptions options = test::syntheticSystemOptions();
+  const sim::SyntheticScene scene(sim::SceneOptions{}, options.camera);
+  const double fps = options.camera.fps;
+  constexpr size_t kFrames = kCoverTurnFrames;
+  const Trajectory path = coverTurnAndComeBackPath(fps);
   const AtlasRun run =
-      runAtlas(scene, path, options, coveredLens(kCoverFirst, kCoverLast), noFrameWithheld, deterministic);
+      runAtlas(scene, path, options, coveredLens(kTurnCoverFirst, kTurnCoverLast), noFrameWithheld, deterministic);
   const nlohmann::json& atlas = run.statistics["atlas"];
   const eval::AteResult ate = eval::computeAte(path, run.main_map);
   std::printf("covered 1 s: %zu of %zu frames in the main map, maps started %d, merges %d, ATE %.2f mm\n%s\n",
@@ -126,13 +131,13 @@ void coveredCameraStartsASecondMapThatIsMergedBack(bool deterministic) {
   // (Tracker::interpolateAcrossMerges).
   EXPECT_EQ(run.main_map.size(), kFrames);
   EXPECT_GT(run.statistics["counts"]["interpolated_poses"].get<int>(), 0);
-  for (size_t i = kCoverLast + 1; i < kCoverLast + 4; ++i) EXPECT_TRUE(run.tracked[i]) << "frame " << i;
+  for (size_t i = kTurnCoverLast + 1; i < kTurnCoverLast + 4; ++i) EXPECT_TRUE(run.tracked[i]) << "frame " << i;
   const int predicted = run.statistics["counts"]["predicted_poses"].get<int>();
   EXPECT_GT(predicted, 0);
   EXPECT_LE(predicted, static_cast<int>(options.tracking.predict_through_loss_s * fps) + 1);
   for (size_t i = 0; i < run.predicted.size(); ++i)
     if (run.predicted[i]) {
-      EXPECT_TRUE(i >= kCoverFirst && i <= kCoverLast) << "frame " << i;
+      EXPECT_TRUE(i >= kTurnCoverFirst && i <= kTurnCoverLast) << "frame " << i;
     }
   // Accuracy of the tracked frames (the predicted ones are dead reckoning through a black view).
   Trajectory tracked;
@@ -152,6 +157,54 @@ TEST(SystemAtlas, CoveredCameraStartsASecondMapThatIsMergedBack) { coveredCamera
 // The same with local mapping and loop closing in their threads: the merge moves the second map
 // while tracking goes on (Map::worldGate; run under ThreadSanitizer too).
 TEST(SystemAtlas, CoveredCameraMergeWithMappingAndLoopThreads) { coveredCameraStartsASecondMapThatIsMergedBack(false); }
+
+// The same path, but place recognition cannot merge maps (atlas.merge_min_consistent_keyframes out
+// of reach): the second map, started after the cover, is merged only because tracking finds the
+// camera in the first map too as it turns back, within atlas.other_map_search_s of that map's
+// start (here long enough to cover the turn), at two frames that agree on the transform. Every
+// frame then has a pose in one world, as accurate as with place recognition. Without the search
+// the two maps stay apart.
+void secondMapIsMergedWhereTrackingFindsTheFirst(bool search, bool deterministic) {
+  SystemOptions options = test::syntheticSystemOptions();
+  options.atlas.merge_min_consistent_keyframes = 100;
+  options.atlas.other_map_search_s = search ? 5.0 : 0.0;
+  const sim::SyntheticScene scene(sim::SceneOptions{}, options.camera);
+  const Trajectory path = coverTurnAndComeBackPath(options.camera.fps);
+  const AtlasRun run =
+      runAtlas(scene, path, options, coveredLens(kTurnCoverFirst, kTurnCoverLast), noFrameWithheld, deterministic);
+  const nlohmann::json& atlas = run.statistics["atlas"];
+  const int by_tracking = run.statistics["loop_closing"]["merges_found_by_tracking"].get<int>();
+  std::printf("search %s: %zu of %zu frames in the main map, found in the other map %d, merges %d (by tracking %d)\n%s\n",
+              search ? "on" : "off", run.main_map.size(), kCoverTurnFrames,
+              run.statistics["counts"]["found_in_other_map"].get<int>(), atlas["merges"].get<int>(), by_tracking,
+              atlas.dump().c_str());
+  ASSERT_GE(atlas["maps_started"].get<int>(), 2) << "a second map after the cover";
+  if (!search) {
+    EXPECT_EQ(atlas["merges"].get<int>(), 0);
+    EXPECT_EQ(liveMaps(run.statistics), 2u);
+    EXPECT_LT(run.main_map.size(), kCoverTurnFrames - 100);
+    return;
+  }
+  EXPECT_GE(by_tracking, 1);
+  EXPECT_EQ(liveMaps(run.statistics), 1u);
+  EXPECT_EQ(run.main_map.size(), kCoverTurnFrames);
+  Trajectory tracked;
+  for (const StampedPose& p : run.main_map)
+    for (size_t i = 0; i < path.size(); ++i)
+      if (path[i].timestamp == p.timestamp && run.tracked[i]) tracked.push_back(p);
+  const eval::AteResult tracked_ate = eval::computeAte(path, tracked);
+  std::printf("ATE over the %zu tracked frames %.2f mm\n", tracked.size(), 1000 * tracked_ate.translation_m.rmse);
+  EXPECT_GE(tracked.size(), kCoverTurnFrames - (kTurnCoverLast - kTurnCoverFirst + 1) - 3);
+  EXPECT_LT(tracked_ate.translation_m.rmse, 0.01);
+}
+
+TEST(SystemAtlas, SecondMapIsMergedWhereTrackingFindsTheFirst) { secondMapIsMergedWhereTrackingFindsTheFirst(true, true); }
+TEST(SystemAtlas, SecondMapIsMergedWhereTrackingFindsTheFirstWithThreads) {
+  secondMapIsMergedWhereTrackingFindsTheFirst(true, false);
+}
+TEST(SystemAtlas, WithoutTheOtherMapSearchTheSecondMapStaysApart) {
+  secondMapIsMergedWhereTrackingFindsTheFirst(false, true);
+}
 
 // The camera maps one side of the room, is covered while it turns round, and starts a second map
 // facing the other side (as above); then it is covered again while it turns back and is uncovered
