@@ -617,9 +617,9 @@ bool Tracker::shouldStartNewMap(const map::Frame& frame, bool young_map) const {
 
 std::optional<Tracker::OtherMapPose> Tracker::findInOtherMap(const map::Frame& frame) {
   if (!relocaliser_ || frame.timestamp > search_other_maps_until_) return std::nullopt;
-  // Each other live map on its own, largest first: candidates are ranked against the best one,
-  // and a map just started in the crowd (its keyframe seeing the same view) would crowd out the
-  // map the camera is still in.
+  // Each other live map on its own, largest first: the relocaliser keeps only candidates close to
+  // the best one's score, so with all maps together a map just started in the same crowd could
+  // leave the map the camera is still in without a candidate.
   std::vector<std::pair<size_t, int>> maps;  // (keyframes, id)
   {
     std::shared_lock lock(map_.mutex());
