@@ -347,16 +347,15 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   // covered the view for a moment): a keyframe here then carries what loop closing needs to merge
   // the two. Place recognition alone rarely merges such a map: it must recognise two of its
   // keyframes in a row, and one started in a crowd sees little of the static scene.
-  std::optional<OtherMapPose> other;
+  std::optional<FoundInOtherMap> other;
   if (!outcome.weak && !outcome.odometry) other = findInOtherMap(frame);
   if (may_make_keyframe && (other || needKeyframe(frame, inliers, mapping_idle, mapping_backlog)))
     outcome.new_keyframe = createKeyframe(frame, inliers, hold_pose);
   if (other && outcome.new_keyframe != nullptr) {
     spdlog::debug("tracking: frame {} (keyframe {}, map {}) found in map {} with {} inliers: handed on for merging",
-                  frame.id, outcome.new_keyframe->id, active_map_, other->reference->map_id, other->inliers);
-    outcome.found_in_other_map =
-        FoundInOtherMap{outcome.new_keyframe, other->reference, other->T_c_wother.inverse(), std::move(other->points),
-                        other->inliers};
+                  frame.id, outcome.new_keyframe->id, active_map_, other->other_reference->map_id, other->inliers);
+    other->keyframe = outcome.new_keyframe;
+    outcome.found_in_other_map = std::move(other);
     ++found_in_other_map_;
     search_other_maps_until_ = 0;
     first_sighting_.reset();
@@ -615,7 +614,7 @@ bool Tracker::shouldStartNewMap(const map::Frame& frame, bool young_map) const {
   return young_map || frame.timestamp - lost_since_ >= options_.atlas.new_map_after_lost_s - 1e-6;
 }
 
-std::optional<Tracker::OtherMapPose> Tracker::findInOtherMap(const map::Frame& frame) {
+std::optional<FoundInOtherMap> Tracker::findInOtherMap(const map::Frame& frame) {
   if (!relocaliser_ || frame.timestamp > search_other_maps_until_) return std::nullopt;
   // Each other live map on its own, largest first: the relocaliser keeps only candidates close to
   // the best one's score, so with all maps together a map just started in the same crowd could
@@ -632,11 +631,11 @@ std::optional<Tracker::OtherMapPose> Tracker::findInOtherMap(const map::Frame& f
   map::Frame probe = frame;
   bool relocalised = false;
   for (const auto& [keyframes, map_id] : maps) {
-    const RelocalisationResult found = relocaliser_->relocalise(probe, map_id);
+    const RelocalisationResult attempt = relocaliser_->relocalise(probe, map_id);
     spdlog::debug("tracking: frame {} (map {}) searched in map {}: {} candidates, best {} matches, {} PnP inliers, "
-                  "{} inliers{}", frame.id, active_map_, map_id, found.candidates, found.best_matches,
-                  found.best_pnp_inliers, found.best_inliers, found.success ? ": found" : "");
-    if ((relocalised = found.success)) break;
+                  "{} inliers{}", frame.id, active_map_, map_id, attempt.candidates, attempt.best_matches,
+                  attempt.best_pnp_inliers, attempt.best_inliers, attempt.success ? ": found" : "");
+    if ((relocalised = attempt.success)) break;
   }
   if (!relocalised) return std::nullopt;
   // Relocalisation and the local-map search below use the tracker's local map: it goes back after.
@@ -676,10 +675,11 @@ std::optional<Tracker::OtherMapPose> Tracker::findInOtherMap(const map::Frame& f
     return std::nullopt;
   }
   if (sighting.timestamp - first_sighting_->timestamp < kSightingIntervalS) return std::nullopt;
-  OtherMapPose pose{other_reference, probe.T_c_w, std::vector<map::MapPoint*>(probe.matches.size(), nullptr), inliers};
+  FoundInOtherMap found{nullptr, other_reference, probe.T_c_w.inverse(),
+                        std::vector<map::MapPoint*>(probe.matches.size(), nullptr), inliers};
   for (size_t i = 0; i < probe.matches.size(); ++i)
-    if (probe.matches[i].point != nullptr && !probe.matches[i].outlier) pose.points[i] = probe.matches[i].point;
-  return pose;
+    if (probe.matches[i].point != nullptr && !probe.matches[i].outlier) found.other_points[i] = probe.matches[i].point;
+  return found;
 }
 
 void Tracker::resetForNewMap() {

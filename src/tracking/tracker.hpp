@@ -137,14 +137,8 @@ class Tracker {
   // Within atlas.other_map_search_s of a map started at a loss, for a frame tracked in it: the frame
   // relocalised against the other maps and tracked in the local map of the one it was found in
   // (with stage 2). Its pose there and matched points once that sighting agrees with an earlier
-  // one (kSightingAgreement*); the tracker's own state is left as it was.
-  struct OtherMapPose {
-    map::Keyframe* reference = nullptr;
-    SE3 T_c_wother;
-    std::vector<map::MapPoint*> points;  // per feature
-    int inliers = 0;
-  };
-  std::optional<OtherMapPose> findInOtherMap(const map::Frame& frame);
+  // one (kSightingAgreement*), keyframe still null; the tracker's own state is left as it was.
+  std::optional<FoundInOtherMap> findInOtherMap(const map::Frame& frame);
   // The first sighting of the current window that later ones are compared with.
   struct OtherMapSighting {
     Timestamp timestamp = 0;
