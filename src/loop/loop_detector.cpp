@@ -1,6 +1,7 @@
 #include "loop/loop_detector.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <map>
 #include <mutex>
@@ -59,6 +60,8 @@ int projectedMatch(const map::Keyframe* kf, const SE3& T_c_w, const Vec3& center
   return best <= max_distance ? best_i : -1;
 }
 
+constexpr size_t kMaxMergeEvidence = 256;  // merge evidence kept (oldest dropped)
+
 RigidRansacOptions ransacOptions(const LoopOptions& o) {
   RigidRansacOptions r;
   r.iterations = o.ransac_iterations;
@@ -80,6 +83,7 @@ void LoopDetector::loopClosed(uint64_t kf_id) {
   last_loop_keyframe_ = kf_id;
   had_loop_ = true;
   groups_.clear();
+  evidence_.clear();  // the correction moved the keyframes it was measured from
 }
 
 place::BowEncoding LoopDetector::encodingOf(map::Keyframe* kf) {
@@ -111,14 +115,68 @@ std::optional<LoopMatch> LoopDetector::detect(map::Keyframe* kf) {
     std::erase_if(candidates, [&](const map::Keyframe* c) { return c->map_id == kf->map_id; });
   stats_.consistent_candidates += candidates.size();
   for (map::Keyframe* candidate : candidates) {
-    if (auto match = verify(kf, candidate, encoding.features)) {
-      match->merge = candidate->map_id != kf->map_id;
+    std::optional<Fit> fit = verify(kf, candidate, encoding.features);
+    if (fit && fit->confirmed) {
+      fit->match.merge = candidate->map_id != kf->map_id;
       ++stats_.loops_detected;
-      if (match->merge) ++stats_.merges_detected;
-      return match;
+      if (fit->match.merge) ++stats_.merges_detected;
+      return std::move(fit->match);
+    }
+    if (fit) {
+      if (std::optional<LoopMatch> merge = mergeFromEvidence(kf, *fit)) {
+        ++stats_.loops_detected;
+        ++stats_.merges_detected;
+        ++stats_.merges_by_agreement;
+        return merge;
+      }
     }
     ++stats_.rejected_geometry;
   }
+  return std::nullopt;
+}
+
+std::optional<LoopMatch> LoopDetector::mergeFromEvidence(const map::Keyframe* kf, Fit& fit) {
+  const SE3 T_wmap_c = kf->T_w_c();
+  MergeEvidence now{kf->id, kf->timestamp, kf->map_id, fit.match.loop->map_id, fit.match.T_w_c_corrected * kf->T_c_w, {}};
+  now.inliers.reserve(fit.inliers.size());
+  for (const PointCorrespondence& c : fit.inliers) now.inliers.push_back({c.p_a, T_wmap_c * c.p_b, c.depth});
+  RigidRansacOptions refit = ransacOptions(options_);
+  refit.min_inliers = options_.min_loop_matches;
+  for (const MergeEvidence& e : evidence_) {
+    // Map ids that are still the same name the same worlds: a merged map's id goes away.
+    if (e.map_id != now.map_id || e.other_map_id != now.other_map_id || e.keyframe_id == now.keyframe_id) continue;
+    if (std::abs(now.timestamp - e.timestamp) < kMapTransformAgreementS) continue;
+    const SE3 difference = e.T_wother_wmap.inverse() * now.T_wother_wmap;
+    if (difference.translation().norm() > kMapTransformAgreementM ||
+        difference.rotationAngle() > kMapTransformAgreementDeg * M_PI / 180)
+      continue;
+    // Both fits' inliers together must make a loop's worth of matches under one transform.
+    std::vector<PointCorrespondence> both = now.inliers;
+    both.insert(both.end(), e.inliers.begin(), e.inliers.end());
+    const RigidRansacResult joint = estimateRigidRansac(both, refit);
+    spdlog::debug("loop: keyframe {} (map {}, {} inliers) agrees with keyframe {} ({}) on map {}: {} of {} inliers "
+                  "together", kf->id, kf->map_id, now.inliers.size(), e.keyframe_id, e.inliers.size(), now.other_map_id,
+                  joint.inlier_count, both.size());
+    if (!joint.success) continue;
+    LoopMatch match = std::move(fit.match);
+    match.T_w_c_corrected = joint.T_a_b * T_wmap_c;
+    // The keyframe's own matches that hold under the joint transform (the first now.inliers.size()).
+    const std::vector<map::MapPoint*> fitted = std::move(match.matched_points);
+    match.matched_points.assign(fitted.size(), nullptr);
+    for (size_t k = 0; k < fit.inlier_features.size(); ++k) {
+      const auto i = static_cast<size_t>(fit.inlier_features[k]);
+      if (joint.inliers[k]) match.matched_points[i] = fitted[i];
+    }
+    match.inliers = joint.inlier_count;
+    match.merge = true;
+    match.agreeing_keyframe = e.keyframe_id;
+    return match;
+  }
+  spdlog::debug("loop: keyframe {} (map {}) fits map {} with {} inliers: kept as merge evidence", kf->id, kf->map_id,
+                now.other_map_id, now.inliers.size());
+  evidence_.push_back(std::move(now));
+  if (evidence_.size() > kMaxMergeEvidence) evidence_.erase(evidence_.begin());
+  ++stats_.merge_evidence;
   return std::nullopt;
 }
 
@@ -211,9 +269,11 @@ std::vector<map::Keyframe*> LoopDetector::consistentCandidates(map::Keyframe* kf
   return consistent;
 }
 
-std::optional<LoopMatch> LoopDetector::verify(map::Keyframe* kf, map::Keyframe* candidate,
-                                              const place::FeatureVector& kf_features) {
+std::optional<LoopDetector::Fit> LoopDetector::verify(map::Keyframe* kf, map::Keyframe* candidate,
+                                                     const place::FeatureVector& kf_features) {
   if (candidate->bad) return std::nullopt;
+  // A merge candidate may end as evidence (atlas.merge_evidence_min_inliers): lower bars on the way.
+  const bool evidence_allowed = candidate->map_id != kf->map_id && atlas_.merge_evidence_min_inliers > 0;
   const map::FeatureSet& fa = *kf->features;
 
   // 1. Descriptor matches within shared vocabulary nodes: kf feature -> map point of the
@@ -288,6 +348,8 @@ std::optional<LoopMatch> LoopDetector::verify(map::Keyframe* kf, map::Keyframe* 
     owners.emplace_back(pairs[k].first, p);
   }
   const RigidRansacOptions ransac = ransacOptions(options_);
+  RigidRansacOptions first_ransac = ransac;
+  if (evidence_allowed) first_ransac.min_inliers = std::min(ransac.min_inliers, atlas_.merge_evidence_ransac_inliers);
   // Why a candidate fails (on fr1_desk every consistent candidate is a false place 1-2 m away
   // with < 25 descriptor matches; true revisits give 100+ inliers): one line per stage.
   const auto rejected = [&](const char* stage, int inliers) {
@@ -300,8 +362,8 @@ std::optional<LoopMatch> LoopDetector::verify(map::Keyframe* kf, map::Keyframe* 
                   mapped_b, stage, pairs.size(), correspondences.size(), inliers);
     return std::nullopt;
   };
-  if (static_cast<int>(correspondences.size()) < options_.min_rigid_inliers) return rejected("matching", 0);
-  const RigidRansacResult first = estimateRigidRansac(correspondences, ransac);
+  if (static_cast<int>(correspondences.size()) < first_ransac.min_inliers) return rejected("matching", 0);
+  const RigidRansacResult first = estimateRigidRansac(correspondences, first_ransac);
   if (!first.success) return rejected("RANSAC", first.inlier_count);
 
   // 2. Guided search: the candidate group's points projected with the estimated pose.
@@ -345,15 +407,37 @@ std::optional<LoopMatch> LoopDetector::verify(map::Keyframe* kf, map::Keyframe* 
     features.push_back(static_cast<int>(i));
   }
   RigidRansacOptions refit = ransac;
-  refit.min_inliers = options_.min_loop_matches;
+  refit.min_inliers = evidence_allowed ? std::min(options_.min_loop_matches, atlas_.merge_evidence_min_inliers)
+                                       : options_.min_loop_matches;
   const RigidRansacResult final_fit = estimateRigidRansac(correspondences, refit);
   if (!final_fit.success) return rejected("guided search", final_fit.inlier_count);
+  Fit fit;
+  LoopMatch& match = fit.match;
+  match.current = kf;
+  match.loop = candidate;
+  match.T_w_c_corrected = final_fit.T_a_b;
+  match.matched_points.assign(fa.size(), nullptr);
+  for (size_t k = 0; k < features.size(); ++k)
+    if (final_fit.inliers[k]) {
+      match.matched_points[features[k]] = matched[features[k]];
+      fit.inliers.push_back(correspondences[k]);
+      fit.inlier_features.push_back(features[k]);
+    }
+  match.ransac_inliers = first.inlier_count;
+  match.inliers = final_fit.inlier_count;
+  // Short of a loop's matches: evidence for a merge at most (see detect()), confirmed as a loop is.
+  const bool short_of_loop = final_fit.inlier_count < options_.min_loop_matches;
 
   // 4. Confirmation from the keyframe's best covisibles: a transform fitted to a coincidence
   // (walkers, repeated texture) rarely also explains what the neighbouring keyframes see.
   if (options_.confirm_keyframes > 0) {
     const std::vector<map::Keyframe*> confirmers = map::bestCovisibles(kf, options_.confirm_keyframes);
-    if (confirmers.empty()) return rejected("confirmation (no covisible keyframe)", final_fit.inlier_count);
+    if (confirmers.empty()) {
+      // A young map's first keyframe: only an agreeing fit from another keyframe can merge it.
+      rejected("confirmation (no covisible keyframe)", final_fit.inlier_count);
+      if (evidence_allowed) return fit;
+      return std::nullopt;
+    }
     for (map::Keyframe* nb : confirmers) {
       // The loop's transform carried to the neighbour through its pose relative to the keyframe.
       const SE3 T_w_nb = final_fit.T_a_b * kf->T_c_w * nb->T_w_c();
@@ -366,16 +450,12 @@ std::optional<LoopMatch> LoopDetector::verify(map::Keyframe* kf, map::Keyframe* 
       }
     }
   }
-  LoopMatch match;
-  match.current = kf;
-  match.loop = candidate;
-  match.T_w_c_corrected = final_fit.T_a_b;
-  match.matched_points.assign(fa.size(), nullptr);
-  for (size_t k = 0; k < features.size(); ++k)
-    if (final_fit.inliers[k]) match.matched_points[features[k]] = matched[features[k]];
-  match.ransac_inliers = first.inlier_count;
-  match.inliers = final_fit.inlier_count;
-  return match;
+  if (short_of_loop) {
+    rejected("guided search (merge evidence)", final_fit.inlier_count);
+    return fit;
+  }
+  fit.confirmed = true;
+  return fit;
 }
 
 int LoopDetector::confirmedMatches(map::Keyframe* nb, const SE3& T_w_nb, const std::vector<map::MapPoint*>& loop_points,

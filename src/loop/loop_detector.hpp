@@ -6,7 +6,8 @@
 //     by sharing a keyframe);
 //     candidates in another map of the atlas (a merge) skip step 1's score floor (a young map's
 //     few neighbours look alike) and need atlas.merge_min_consistent_keyframes; the geometric
-//     check below is the same;
+//     check below is the same, except that a merge candidate falling short of its bars with at
+//     least atlas.merge_evidence_min_inliers is kept as evidence: two agreeing ones merge the maps;
 //  4. descriptor matches (within vocabulary nodes) between the keyframe's features and the
 //     candidate's map points, rigid SE(3) RANSAC on 3-D-3-D pairs (depth gives the scale),
 //     guided search by projection of the candidate group's points, refit.
@@ -42,6 +43,9 @@ struct LoopMatch {
   int inliers = 0;         // after guided search and refit
   bool merge = false;      // the loop keyframe lies in another map of the atlas
   bool from_tracking = false;  // suggested by tracking (LoopCloser::suggestMerge), not recognised here
+  // A merge from two weaker fits that agreed (atlas.merge_evidence_min_inliers): the keyframe
+  // whose earlier fit this one agreed with; 0 otherwise.
+  uint64_t agreeing_keyframe = 0;
 };
 
 struct LoopDetectionStats {
@@ -51,6 +55,8 @@ struct LoopDetectionStats {
   size_t rejected_confirmation = 0;  // of those, fitted but not confirmed by the keyframe's covisibles
   size_t loops_detected = 0;
   size_t merges_detected = 0;        // of those, in another map
+  size_t merge_evidence = 0;         // merge candidates kept as evidence (short of the bars, see above)
+  size_t merges_by_agreement = 0;    // merges from two agreeing pieces of evidence
 };
 
 class LoopDetector {
@@ -74,7 +80,30 @@ class LoopDetector {
   };
 
   std::vector<map::Keyframe*> consistentCandidates(map::Keyframe* kf, const place::BowVector& bow);
-  std::optional<LoopMatch> verify(map::Keyframe* kf, map::Keyframe* candidate, const place::FeatureVector& kf_features);
+  // A fitted candidate: `confirmed` when it clears every bar of a loop; otherwise (merge candidates
+  // only) evidence with at least atlas.merge_evidence_min_inliers.
+  struct Fit {
+    LoopMatch match;
+    bool confirmed = false;
+    // The fit's inliers: candidate-world point (p_a) and the keyframe's camera point (p_b), and the
+    // keyframe feature of each.
+    std::vector<PointCorrespondence> inliers;
+    std::vector<int> inlier_features;
+  };
+  std::optional<Fit> verify(map::Keyframe* kf, map::Keyframe* candidate, const place::FeatureVector& kf_features);
+  // A merge candidate's fit short of a loop's bars, with the evidence kept from earlier keyframes:
+  // when one of them agrees on the transform between the two maps (kMapTransformAgreement*) and
+  // the inliers of both, refitted together, reach loop.min_loop_matches, the merge; else the fit
+  // is kept as evidence. Map lock held (shared).
+  struct MergeEvidence {
+    uint64_t keyframe_id = 0;
+    Timestamp timestamp = 0;
+    int map_id = -1;        // the keyframe's map
+    int other_map_id = -1;  // the candidate's
+    SE3 T_wother_wmap;
+    std::vector<PointCorrespondence> inliers;  // p_a in the other map's world, p_b in this map's
+  };
+  std::optional<LoopMatch> mergeFromEvidence(const map::Keyframe* kf, Fit& fit);
   // Features of `nb` that match one of `loop_points` where the pose T_w_nb projects it, with the
   // descriptor within max_descriptor_distance and nb's 3-D reading within the RANSAC tolerance.
   int confirmedMatches(map::Keyframe* nb, const SE3& T_w_nb, const std::vector<map::MapPoint*>& loop_points,
@@ -87,6 +116,7 @@ class LoopDetector {
   map::Map& map_;
   place::KeyframeDatabase& database_;
   std::vector<ConsistentGroup> groups_;
+  std::vector<MergeEvidence> evidence_;  // oldest first, at most kMaxMergeEvidence
   uint64_t last_loop_keyframe_ = 0;
   bool had_loop_ = false;
   LoopDetectionStats stats_;

@@ -12,6 +12,8 @@ void AtlasOptions::validate() const {
   requireInRange(s, "other_map_search_s", other_map_search_s, 0.0, 3600.0);
   requireInRange(s, "merge_min_consistent_keyframes", merge_min_consistent_keyframes, 1, 100);
   requireInRange(s, "merge_match_keyframes", merge_match_keyframes, 1, 100);
+  requireInRange(s, "merge_evidence_min_inliers", merge_evidence_min_inliers, 0, 100000);
+  requireInRange(s, "merge_evidence_ransac_inliers", merge_evidence_ransac_inliers, 3, 100000);
 }
 
 }  // namespace desslam

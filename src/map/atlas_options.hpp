@@ -44,6 +44,18 @@ struct AtlasOptions {
   // map points, too few alone. Loops within a map match the candidate alone: there a missed loop
   // costs some drift, while a wider match closed 6 false loops on Bonn crowd (walkers, presumably).
   int merge_match_keyframes = 5;
+  // A merge candidate whose fit falls short of loop.min_loop_matches after the guided search but
+  // still has this many inliers (and is confirmed by the keyframe's covisibles as a loop is, where
+  // it has any) is kept as evidence. Two such fits, from keyframes at least kMapTransformAgreementS
+  // apart, that give the same transform between the two maps (kMapTransformAgreementM/Deg), and
+  // whose inliers refitted together reach loop.min_loop_matches under one transform, merge them by
+  // that transform. A map revisited 20-40 degrees off its old views, or in a crowd, gives 25-39
+  // inliers per keyframe where a loop needs 40 (crowded fr1_desk composites: maps that saw the same
+  // desk 0.2 m apart stayed apart), while fits to walkers or coincidences do not repeat. The first
+  // RANSAC of such a candidate needs merge_evidence_ransac_inliers (instead of
+  // loop.min_rigid_inliers) to go on to the guided search. 0 = off.
+  int merge_evidence_min_inliers = 25;
+  int merge_evidence_ransac_inliers = 12;
 
   static constexpr const char* kSection = "atlas";
   template <class V> void fields(V& v) {
@@ -53,8 +65,18 @@ struct AtlasOptions {
     v("other_map_search_s", other_map_search_s);
     v("merge_min_consistent_keyframes", merge_min_consistent_keyframes);
     v("merge_match_keyframes", merge_match_keyframes);
+    v("merge_evidence_min_inliers", merge_evidence_min_inliers);
+    v("merge_evidence_ransac_inliers", merge_evidence_ransac_inliers);
   }
   void validate() const;
 };
+
+// Two estimates of the transform between two maps (tracking's sightings of another map, loop
+// closing's merge evidence) agree when they differ by at most this much and were taken at least
+// kMapTransformAgreementS apart: walkers' features that the masks missed can make one
+// consistent-looking fit, but they move on within that time.
+inline constexpr double kMapTransformAgreementM = 0.05;
+inline constexpr double kMapTransformAgreementDeg = 3.0;
+inline constexpr double kMapTransformAgreementS = 0.15;
 
 }  // namespace desslam

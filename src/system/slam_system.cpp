@@ -703,6 +703,8 @@ nlohmann::json SlamSystem::statistics() const {
                          {"loops_detected", ls.loops_detected},
                          {"loops_closed", ls.loops_closed},
                          {"merges_detected", ls.detection.merges_detected},
+                         {"merge_evidence", ls.detection.merge_evidence},
+                         {"merges_by_agreement", ls.detection.merges_by_agreement},
                          {"merges_found_by_tracking",
                           std::count_if(ls.merges.begin(), ls.merges.end(),
                                         [](const loop::MergedMaps& m) { return m.found_by_tracking; })},

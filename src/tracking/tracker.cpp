@@ -37,12 +37,8 @@ constexpr size_t kRecoveryKeyframes = 8;   // when lost, the newest keyframes tr
 constexpr double kStillTranslation = 0.005;        // metres per frame below which motion is negligible
 constexpr double kStillRotation = 0.5 * M_PI / 180;  // radians per frame
 constexpr size_t kBridgeVelocityFrames = 5;  // tracked frames whose average motion bridges a loss
-// Another map found again (findInOtherMap) is handed on for merging only when two sightings at
-// least kSightingIntervalS apart give the same transform between the maps: walkers' features that
-// the masks missed can make one consistent-looking pose, but they move on within that time.
-constexpr double kSightingIntervalS = 0.15;
-constexpr double kSightingAgreementM = 0.05;
-constexpr double kSightingAgreementRad = 3.0 * M_PI / 180;
+// Another map found again (findInOtherMap) is handed on for merging only when two sightings agree
+// (map/atlas_options.hpp: kMapTransformAgreement*).
 constexpr size_t kOtherMapsSearched = 3;  // per frame, the largest other maps
 // Frame-to-frame odometry (trackWithOdometry): descriptor matching between consecutive frames,
 // whose descriptors barely change, within a window around the same pixel.
@@ -670,11 +666,12 @@ std::optional<FoundInOtherMap> Tracker::findInOtherMap(const map::Frame& frame) 
     return std::nullopt;
   }
   const SE3 difference = first_sighting_->T_wother_wactive.inverse() * sighting.T_wother_wactive;
-  if (difference.translation().norm() > kSightingAgreementM || difference.rotationAngle() > kSightingAgreementRad) {
+  if (difference.translation().norm() > kMapTransformAgreementM ||
+      difference.rotationAngle() > kMapTransformAgreementDeg * M_PI / 180) {
     first_sighting_ = sighting;  // the earlier one may have been the wrong one
     return std::nullopt;
   }
-  if (sighting.timestamp - first_sighting_->timestamp < kSightingIntervalS) return std::nullopt;
+  if (sighting.timestamp - first_sighting_->timestamp < kMapTransformAgreementS) return std::nullopt;
   FoundInOtherMap found{nullptr, other_reference, probe.T_c_w.inverse(),
                         std::vector<map::MapPoint*>(probe.matches.size(), nullptr), inliers};
   for (size_t i = 0; i < probe.matches.size(); ++i)

@@ -137,7 +137,7 @@ class Tracker {
   // Within atlas.other_map_search_s of a map started at a loss, for a frame tracked in it: the frame
   // relocalised against the other maps and tracked in the local map of the one it was found in
   // (with stage 2). Its pose there and matched points once that sighting agrees with an earlier
-  // one (kSightingAgreement*), keyframe still null; the tracker's own state is left as it was.
+  // one (kMapTransformAgreement*), keyframe still null; the tracker's own state is left as it was.
   std::optional<FoundInOtherMap> findInOtherMap(const map::Frame& frame);
   // The first sighting of the current window that later ones are compared with.
   struct OtherMapSighting {

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <thread>
 #include <cstdio>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <shared_mutex>
@@ -86,16 +87,21 @@ struct RunResult {
 // kTwoMapsBadNeighbours: as kTwoMaps, but every other keyframe of the second map is placed 0.3 m
 // off where it is: each keyframe still recognises the first lap, but no transform from it also
 // explains what its covisible neighbours see (the confirmation must refuse such merges).
-enum class Mode { kNoLoopClosing, kInline, kThreads, kTwoMaps, kTwoMapsBadNeighbours };
+// kTwoMapsScattered: as kTwoMaps, but each keyframe of the second map is turned about its centre by
+// its own angle: each one's fit to the first lap gives another transform between the maps.
+enum class Mode { kNoLoopClosing, kInline, kThreads, kTwoMaps, kTwoMapsBadNeighbours, kTwoMapsScattered };
 // T_wB_wA: where the first map's world lies in the second's.
 const SE3 kSecondMapWorld(Quat(Eigen::AngleAxisd(0.7, Vec3(0.2, 1.0, 0.1).normalized())), Vec3(0.8, -0.3, 1.5));
 
-RunResult run(Mode mode, int confirm_keyframes = LoopOptions{}.confirm_keyframes) {
+// adjust: option changes for the run.
+RunResult run(Mode mode, int confirm_keyframes = LoopOptions{}.confirm_keyframes,
+              const std::function<void(SystemOptions&)>& adjust = {}) {
   const std::vector<RenderedKeyframe>& rendered = renderedKeyframes();
   SystemOptions options;
   options.camera = sim::syntheticCamera();
   options.loop.enabled = mode != Mode::kNoLoopClosing;
   options.loop.confirm_keyframes = confirm_keyframes;
+  if (adjust) adjust(options);
   const PinholeCamera camera(options.camera);
   map::Map map;
   place::KeyframeDatabase database(place::loadVocabulary(""), 2);
@@ -110,7 +116,8 @@ RunResult run(Mode mode, int confirm_keyframes = LoopOptions{}.confirm_keyframes
 
   // Odometry bias per keyframe step: 0.4 deg of yaw and 1 cm sideways.
   const bool bad_neighbours = mode == Mode::kTwoMapsBadNeighbours;
-  const bool two_maps = mode == Mode::kTwoMaps || bad_neighbours;
+  const bool scattered = mode == Mode::kTwoMapsScattered;
+  const bool two_maps = mode == Mode::kTwoMaps || bad_neighbours || scattered;
   const SE3 bias = two_maps ? SE3() : SE3(Quat(Eigen::AngleAxisd(0.4 * kPi / 180, Vec3::UnitY())), Vec3(0.01, 0.0, 0.0));
   int map_id = 0;
   bool second_map_merged = false;
@@ -136,6 +143,8 @@ RunResult run(Mode mode, int confirm_keyframes = LoopOptions{}.confirm_keyframes
       if (second_lap && !second_map_merged) {
         T_w_c = kSecondMapWorld * r.T_w_c_true;
         if (bad_neighbours && k % 2 == 1) T_w_c = T_w_c * SE3(Quat::Identity(), Vec3(0.3, 0.0, 0.0));
+        if (scattered)  // turned about its centre by 7 degrees more per keyframe (43 keyframes: < 360)
+          T_w_c = T_w_c * SE3(Quat(Eigen::AngleAxisd(7.0 * kPi / 180 * static_cast<double>(k), Vec3::UnitY())), Vec3::Zero());
       } else if (k > 0) {
         // Odometry from the previous keyframe's present estimate (corrected, if a loop closed).
         const SE3 motion = rendered[k - 1].T_w_c_true.inverse() * r.T_w_c_true;
@@ -283,6 +292,49 @@ TEST(MapMerging, ATransformItsCovisibleKeyframesContradictIsRefused) {
   EXPECT_GE(unconfirmed.stats.merges.size(), 1u) << "the place must be recognisable for the test to mean anything";
   EXPECT_EQ(confirmed.stats.merges.size(), 0u);
   EXPECT_GE(confirmed.stats.detection.rejected_confirmation, 1u);
+}
+
+// Fits too weak for a loop (here loop.min_loop_matches = 1000: more than one keyframe's fit gets
+// on the synthetic room, fewer than two get together) still merge two maps when two keyframes' fits
+// agree on the transform between them and reach that bar together (atlas.merge_evidence_min_inliers),
+// and by the right transform; without that evidence the maps stay apart.
+TEST(MapMerging, AgreeingFitsShortOfALoopMergeTheMaps) {
+  const auto unreachable_loop = [](SystemOptions& o) { o.loop.min_loop_matches = 1000; };
+  const RunResult merged = run(Mode::kTwoMaps, LoopOptions{}.confirm_keyframes, unreachable_loop);
+  const RunResult apart = run(Mode::kTwoMaps, LoopOptions{}.confirm_keyframes, [&](SystemOptions& o) {
+    unreachable_loop(o);
+    o.atlas.merge_evidence_min_inliers = 0;
+  });
+  std::printf("loops out of reach: %zu merge(s) from %zu agreeing fits (%zu kept as evidence); %zu without evidence\n",
+              merged.stats.merges.size(), merged.stats.detection.merges_by_agreement,
+              merged.stats.detection.merge_evidence, apart.stats.merges.size());
+  EXPECT_EQ(apart.stats.merges.size(), 0u);
+  ASSERT_EQ(merged.stats.merges.size(), 1u);
+  EXPECT_EQ(merged.stats.detection.merges_by_agreement, 1u);
+  const MergedMaps& m = merged.stats.merges.front();
+  EXPECT_GE(m.inliers, 1000);  // both fits' inliers under the joint transform
+  const SE3 error = m.T_into_from * kSecondMapWorld;
+  std::printf("%d inliers together; transform error %.2f mm, %.3f deg; ATE after merging %.2f mm over %zu keyframes\n",
+              m.inliers, 1000 * error.translation().norm(), error.rotationAngle() * 180 / kPi,
+              1000 * merged.ate.translation_m.rmse, merged.ate.matched);
+  EXPECT_LT(error.translation().norm(), 0.05);
+  EXPECT_LT(error.rotationAngle() * 180 / kPi, 3.0);
+  EXPECT_LT(merged.ate.translation_m.rmse, 0.01);
+  EXPECT_EQ(merged.ate.matched, renderedKeyframes().size());
+}
+
+// Evidence merges only when two fits agree: with every keyframe of the second map misplaced in its
+// own direction (and no confirmation by covisible keyframes), each fit gives another transform
+// between the maps, and none merges them; with the keyframes in place the same settings merge.
+TEST(MapMerging, FitsThatDisagreeDoNotMerge) {
+  const auto evidence_only = [](SystemOptions& o) { o.loop.min_loop_matches = 1000; };
+  const RunResult scattered = run(Mode::kTwoMapsScattered, 0, evidence_only);
+  const RunResult in_place = run(Mode::kTwoMaps, 0, evidence_only);
+  std::printf("scattered keyframes: %zu merge(s), %zu fits kept as evidence; in place: %zu merge(s)\n",
+              scattered.stats.merges.size(), scattered.stats.detection.merge_evidence, in_place.stats.merges.size());
+  EXPECT_GE(scattered.stats.detection.merge_evidence, 2u) << "the first lap must be recognised for the test to mean anything";
+  EXPECT_EQ(scattered.stats.merges.size(), 0u);
+  EXPECT_EQ(in_place.stats.merges.size(), 1u);
 }
 
 TEST(LoopOptions, ValidateNamesTheBadKey) {
