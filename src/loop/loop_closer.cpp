@@ -98,6 +98,28 @@ bool LoopCloser::process(map::Keyframe* kf) {
   return correctLoop(*match);
 }
 
+int LoopCloser::mergeRemainingMaps(const std::atomic<bool>* abort) {
+  if (!options_.loop.enabled || !options_.atlas.final_merge_search) return 0;
+  int merges = 0;
+  // Each merge leaves one map fewer: the search ends with one map or when it finds nothing.
+  while (abort == nullptr || !abort->load()) {
+    std::optional<LoopMatch> match = detector_.searchMergeAcrossMaps();
+    {
+      std::lock_guard lock(stats_mutex_);
+      stats_.detection = detector_.stats();
+      if (match) ++stats_.loops_detected;
+    }
+    if (!match || !correctLoop(*match)) break;
+    ++merges;
+    {
+      std::lock_guard lock(stats_mutex_);
+      ++stats_.merges_at_end;
+    }
+    if (!waitForGlobalBa(abort)) abortGlobalBa();
+  }
+  return merges;
+}
+
 void LoopCloser::suggestMerge(const LoopMatch& match) {
   LoopMatch suggested = match;
   suggested.merge = true;

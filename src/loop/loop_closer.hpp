@@ -81,6 +81,7 @@ struct LoopClosingStats {
   std::vector<double> correction_ms, pose_graph_ms, global_ba_ms;
   std::vector<ClosedLoop> closed;
   std::vector<MergedMaps> merges;
+  size_t merges_at_end = 0;    // of those, by mergeRemainingMaps()
   LoopDetectionStats detection;
 };
 
@@ -111,6 +112,11 @@ class LoopCloser {
   bool process(map::Keyframe* kf);
   // Applies a detected loop (exposed for tests that build the match themselves).
   bool correctLoop(const LoopMatch& match);
+  // The end of a run (atlas.final_merge_search), keyframes no longer arriving: the maps still
+  // apart are searched for each other (LoopDetector::searchMergeAcrossMaps) and merged one after
+  // another, each with the steps of a merge found online and its global BA. Returns the merges.
+  // Only with the loop-closing thread stopped (or never started).
+  int mergeRemainingMaps(const std::atomic<bool>* abort = nullptr);
   // A merge that tracking found (the camera, tracked in match.current's map, was tracked in
   // match.loop's map too: tracking::FoundInOtherMap): process(match.current) applies it when place
   // recognition finds nothing there itself. Any thread; before match.current reaches process().

@@ -61,6 +61,8 @@ int projectedMatch(const map::Keyframe* kf, const SE3& T_c_w, const Vec3& center
 }
 
 constexpr size_t kMaxMergeEvidence = 256;  // merge evidence kept (oldest dropped)
+// searchMergeAcrossMaps(): per keyframe, the other maps' keyframes its bag of words ranks best.
+constexpr int kFinalMergeCandidates = 10;
 
 RigidRansacOptions ransacOptions(const LoopOptions& o) {
   RigidRansacOptions r;
@@ -131,6 +133,48 @@ std::optional<LoopMatch> LoopDetector::detect(map::Keyframe* kf) {
       }
     }
     ++stats_.rejected_geometry;
+  }
+  return std::nullopt;
+}
+
+std::optional<LoopMatch> LoopDetector::searchMergeAcrossMaps() {
+  std::shared_lock lock(map_.mutex());
+  std::map<int, std::vector<map::Keyframe*>> by_map;
+  for (map::Keyframe* kf : map_.keyframes())
+    if (!kf->bad) by_map[kf->map_id].push_back(kf);
+  if (by_map.size() < 2) return std::nullopt;
+  const int largest = std::max_element(by_map.begin(), by_map.end(), [](const auto& a, const auto& b) {
+                        return a.second.size() < b.second.size();
+                      })->first;
+  for (const auto& [map_id, keyframes] : by_map) {
+    if (map_id == largest) continue;
+    std::set<uint64_t> own;
+    for (const map::Keyframe* kf : keyframes) own.insert(kf->id);
+    place::BowQueryOptions query;
+    query.max_results = kFinalMergeCandidates;
+    query.filter = [&own](uint64_t id) { return own.count(id) == 0; };
+    for (map::Keyframe* kf : keyframes) {
+      const place::BowEncoding encoding = encodingOf(kf);
+      for (const place::KeyframeCandidate& c : database_.query(encoding.bow, query)) {
+        if (c.keyframe->bad || c.keyframe->map_id == kf->map_id) continue;
+        std::optional<Fit> fit = verify(kf, c.keyframe, encoding.features);
+        if (!fit) continue;
+        std::optional<LoopMatch> merge;
+        if (fit->confirmed) {
+          merge = std::move(fit->match);
+          merge->merge = true;
+        } else {
+          merge = mergeFromEvidence(kf, *fit);
+          if (merge) ++stats_.merges_by_agreement;
+        }
+        if (!merge) continue;
+        spdlog::debug("loop: end of run: keyframe {} (map {}) found in map {} ({} inliers)", kf->id, kf->map_id,
+                      c.keyframe->map_id, merge->inliers);
+        ++stats_.loops_detected;
+        ++stats_.merges_detected;
+        return merge;
+      }
+    }
   }
   return std::nullopt;
 }

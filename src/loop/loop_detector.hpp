@@ -67,6 +67,12 @@ class LoopDetector {
   // Checks one keyframe (in keyframe order). Adds it to the database when it is not there yet
   // (local mapping normally has). Returns a verified loop, or nothing.
   std::optional<LoopMatch> detect(map::Keyframe* kf);
+  // The end of a run: each keyframe of every map but the one with the most keyframes against the
+  // other maps' keyframes its bag of words ranks best (kFinalMergeCandidates), each verified as a
+  // merge candidate online is (a confirmed fit, or two agreeing pieces of evidence), without the
+  // consistency over consecutive keyframes (step 3): online, a revisit that BoW ranks below other
+  // places never becomes a candidate. The first merge found, or nothing.
+  std::optional<LoopMatch> searchMergeAcrossMaps();
   // A loop ending at keyframe `kf_id` was closed: detection pauses for
   // min_keyframes_between_loops keyframes and the consistency state starts over.
   void loopClosed(uint64_t kf_id);

@@ -56,6 +56,12 @@ struct AtlasOptions {
   // loop.min_rigid_inliers) to go on to the guided search. 0 = off.
   int merge_evidence_min_inliers = 25;
   int merge_evidence_ransac_inliers = 12;
+  // At the end of a run, the maps still apart are searched for each other: every keyframe of each
+  // but the largest against the other maps' keyframes its bag of words ranks best, verified as a
+  // merge online is (loop/loop_detector.hpp: searchMergeAcrossMaps), and merged one after another
+  // before the final bundle adjustment. Online, a place seen again that BoW ranks below others for
+  // two keyframes in a row never becomes a candidate.
+  bool final_merge_search = true;
 
   static constexpr const char* kSection = "atlas";
   template <class V> void fields(V& v) {
@@ -67,6 +73,7 @@ struct AtlasOptions {
     v("merge_match_keyframes", merge_match_keyframes);
     v("merge_evidence_min_inliers", merge_evidence_min_inliers);
     v("merge_evidence_ransac_inliers", merge_evidence_ransac_inliers);
+    v("final_merge_search", final_merge_search);
   }
   void validate() const;
 };

@@ -445,6 +445,11 @@ void SlamSystem::finish(const FinishControl& control) {
     return (mapping_thread_ && mapping_thread_->failure()) || (loop_thread_ && loop_thread_->failure()) ||
            (loop_closer_ && loop_closer_->failure());
   }();
+  // Maps still apart may find each other now that every keyframe is in (atlas.final_merge_search).
+  if (loop_closer_ && !worker_failed && !aborted()) {
+    const int merged = loop_closer_->mergeRemainingMaps(control.abort);
+    if (merged > 0) spdlog::info("finish: {} more map merge(s) at the end of the run", merged);
+  }
   // After a failed worker the map may be half-updated: no final BA on it.
   if (options_.mapping.final_global_ba && !worker_failed && stage("final_ba") && !aborted()) {
     optim::BundleAdjustmentOptions ba;
@@ -705,6 +710,7 @@ nlohmann::json SlamSystem::statistics() const {
                          {"merges_detected", ls.detection.merges_detected},
                          {"merge_evidence", ls.detection.merge_evidence},
                          {"merges_by_agreement", ls.detection.merges_by_agreement},
+                         {"merges_at_end", ls.merges_at_end},
                          {"merges_found_by_tracking",
                           std::count_if(ls.merges.begin(), ls.merges.end(),
                                         [](const loop::MergedMaps& m) { return m.found_by_tracking; })},

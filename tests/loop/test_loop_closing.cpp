@@ -204,6 +204,7 @@ RunResult run(Mode mode, int confirm_keyframes = LoopOptions{}.confirm_keyframes
     loop_thread->stop();
   }
   closer.waitForGlobalBa();
+  closer.mergeRemainingMaps();  // as a run's end does (atlas.final_merge_search)
 
   Trajectory estimate;
   {
@@ -335,6 +336,31 @@ TEST(MapMerging, FitsThatDisagreeDoNotMerge) {
   EXPECT_GE(scattered.stats.detection.merge_evidence, 2u) << "the first lap must be recognised for the test to mean anything";
   EXPECT_EQ(scattered.stats.merges.size(), 0u);
   EXPECT_EQ(in_place.stats.merges.size(), 1u);
+}
+
+// Online, place recognition cannot merge the maps here (a place must recur over 100 keyframes in a
+// row); at the end of the run the search across maps finds the first lap in the second map and
+// merges them by the right transform. Without that search the maps stay apart.
+TEST(MapMerging, MapsStillApartAtTheEndAreSearchedAndMerged) {
+  const auto no_online_merge = [](SystemOptions& o) { o.atlas.merge_min_consistent_keyframes = 100; };
+  const RunResult at_end = run(Mode::kTwoMaps, LoopOptions{}.confirm_keyframes, no_online_merge);
+  const RunResult apart = run(Mode::kTwoMaps, LoopOptions{}.confirm_keyframes, [&](SystemOptions& o) {
+    no_online_merge(o);
+    o.atlas.final_merge_search = false;
+  });
+  std::printf("no merge online: %zu merge(s) at the end (%zu in all); %zu without the search\n",
+              at_end.stats.merges_at_end, at_end.stats.merges.size(), apart.stats.merges.size());
+  EXPECT_EQ(apart.stats.merges.size(), 0u);
+  ASSERT_EQ(at_end.stats.merges.size(), 1u);
+  EXPECT_EQ(at_end.stats.merges_at_end, 1u);
+  const SE3 error = at_end.stats.merges.front().T_into_from * kSecondMapWorld;
+  std::printf("transform error %.2f mm, %.3f deg; ATE after merging %.2f mm over %zu keyframes\n",
+              1000 * error.translation().norm(), error.rotationAngle() * 180 / kPi,
+              1000 * at_end.ate.translation_m.rmse, at_end.ate.matched);
+  EXPECT_LT(error.translation().norm(), 0.05);
+  EXPECT_LT(error.rotationAngle() * 180 / kPi, 3.0);
+  EXPECT_LT(at_end.ate.translation_m.rmse, 0.01);
+  EXPECT_EQ(at_end.ate.matched, renderedKeyframes().size());
 }
 
 TEST(LoopOptions, ValidateNamesTheBadKey) {

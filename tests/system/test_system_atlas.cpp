@@ -159,34 +159,45 @@ TEST(SystemAtlas, CoveredCameraStartsASecondMapThatIsMergedBack) { coveredCamera
 // while tracking goes on (Map::worldGate; run under ThreadSanitizer too).
 TEST(SystemAtlas, CoveredCameraMergeWithMappingAndLoopThreads) { coveredCameraStartsASecondMapThatIsMergedBack(false); }
 
-// The same path, but place recognition cannot merge maps (atlas.merge_min_consistent_keyframes out
-// of reach): the second map, started after the cover, is merged only because tracking finds the
-// camera in the first map too as it turns back, within atlas.other_map_search_s of that map's
-// start (here long enough to cover the turn), at two frames that agree on the transform. Every
-// frame then has a pose in one world, as accurate as with place recognition. Without the search
-// the two maps stay apart.
-void secondMapIsMergedWhereTrackingFindsTheFirst(bool search, bool deterministic) {
+// The same path, but place recognition cannot merge maps while keyframes arrive
+// (atlas.merge_min_consistent_keyframes out of reach):
+// - kByTracking: the second map, started after the cover, is merged because tracking finds the
+//   camera in the first map too as it turns back, within atlas.other_map_search_s of that map's
+//   start (here long enough to cover the turn), at two frames that agree on the transform;
+// - kAtTheEnd: without that search, the maps are merged at the end of the run, when every
+//   keyframe of the second map is searched for in the first (atlas.final_merge_search);
+// - kNever: without either, the two maps stay apart.
+// Every frame merged then has a pose in one world, as accurate as with place recognition online.
+enum class MergedBy { kTracking, kEndOfRunSearch, kNothing };
+void secondMapIsMergedWithoutPlaceRecognitionOnline(MergedBy by, bool deterministic) {
   SystemOptions options = test::syntheticSystemOptions();
   options.atlas.merge_min_consistent_keyframes = 100;
-  options.atlas.other_map_search_s = search ? 5.0 : 0.0;
+  options.atlas.other_map_search_s = by == MergedBy::kTracking ? 5.0 : 0.0;
+  options.atlas.final_merge_search = by == MergedBy::kEndOfRunSearch;
   const sim::SyntheticScene scene(sim::SceneOptions{}, options.camera);
   const Trajectory path = coverTurnAndComeBackPath(options.camera.fps);
   const AtlasRun run =
       runAtlas(scene, path, options, coveredLens(kTurnCoverFirst, kTurnCoverLast), noFrameWithheld, deterministic);
   const nlohmann::json& atlas = run.statistics["atlas"];
   const int by_tracking = run.statistics["loop_closing"]["merges_found_by_tracking"].get<int>();
-  std::printf("search %s: %zu of %zu frames in the main map, found in the other map %d, merges %d (by tracking %d)\n%s\n",
-              search ? "on" : "off", run.main_map.size(), kCoverTurnFrames,
-              run.statistics["counts"]["found_in_other_map"].get<int>(), atlas["merges"].get<int>(), by_tracking,
-              atlas.dump().c_str());
+  const int at_end = run.statistics["loop_closing"]["merges_at_end"].get<int>();
+  std::printf("%zu of %zu frames in the main map, found in the other map %d, merges %d (by tracking %d, at the end %d)\n%s\n",
+              run.main_map.size(), kCoverTurnFrames, run.statistics["counts"]["found_in_other_map"].get<int>(),
+              atlas["merges"].get<int>(), by_tracking, at_end, atlas.dump().c_str());
   ASSERT_GE(atlas["maps_started"].get<int>(), 2) << "a second map after the cover";
-  if (!search) {
+  if (by == MergedBy::kNothing) {
     EXPECT_EQ(atlas["merges"].get<int>(), 0);
     EXPECT_EQ(liveMaps(run.statistics), 2u);
     EXPECT_LT(run.main_map.size(), kCoverTurnFrames - 100);
     return;
   }
-  EXPECT_GE(by_tracking, 1);
+  if (by == MergedBy::kTracking) {
+    EXPECT_GE(by_tracking, 1);
+    EXPECT_EQ(at_end, 0);
+  } else {
+    EXPECT_EQ(by_tracking, 0);
+    EXPECT_EQ(at_end, 1);
+  }
   EXPECT_EQ(liveMaps(run.statistics), 1u);
   EXPECT_EQ(run.main_map.size(), kCoverTurnFrames);
   Trajectory tracked;
@@ -199,12 +210,20 @@ void secondMapIsMergedWhereTrackingFindsTheFirst(bool search, bool deterministic
   EXPECT_LT(tracked_ate.translation_m.rmse, 0.01);
 }
 
-TEST(SystemAtlas, SecondMapIsMergedWhereTrackingFindsTheFirst) { secondMapIsMergedWhereTrackingFindsTheFirst(true, true); }
-TEST(SystemAtlas, SecondMapIsMergedWhereTrackingFindsTheFirstWithThreads) {
-  secondMapIsMergedWhereTrackingFindsTheFirst(true, false);
+TEST(SystemAtlas, SecondMapIsMergedWhereTrackingFindsTheFirst) {
+  secondMapIsMergedWithoutPlaceRecognitionOnline(MergedBy::kTracking, true);
 }
-TEST(SystemAtlas, WithoutTheOtherMapSearchTheSecondMapStaysApart) {
-  secondMapIsMergedWhereTrackingFindsTheFirst(false, true);
+TEST(SystemAtlas, SecondMapIsMergedWhereTrackingFindsTheFirstWithThreads) {
+  secondMapIsMergedWithoutPlaceRecognitionOnline(MergedBy::kTracking, false);
+}
+TEST(SystemAtlas, SecondMapIsMergedByTheSearchAtTheEndOfTheRun) {
+  secondMapIsMergedWithoutPlaceRecognitionOnline(MergedBy::kEndOfRunSearch, true);
+}
+TEST(SystemAtlas, SecondMapIsMergedByTheSearchAtTheEndOfTheRunWithThreads) {
+  secondMapIsMergedWithoutPlaceRecognitionOnline(MergedBy::kEndOfRunSearch, false);
+}
+TEST(SystemAtlas, WithoutTheOtherMapSearchesTheSecondMapStaysApart) {
+  secondMapIsMergedWithoutPlaceRecognitionOnline(MergedBy::kNothing, true);
 }
 
 // The camera maps one side of the room, is covered while it turns round, and starts a second map
