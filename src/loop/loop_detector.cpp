@@ -213,7 +213,6 @@ std::optional<LoopMatch> LoopDetector::mergeFromEvidence(const map::Keyframe* kf
     }
     match.inliers = joint.inlier_count;
     match.merge = true;
-    match.agreeing_keyframe = e.keyframe_id;
     return match;
   }
   spdlog::debug("loop: keyframe {} (map {}) fits map {} with {} inliers: kept as merge evidence", kf->id, kf->map_id,

@@ -43,9 +43,6 @@ struct LoopMatch {
   int inliers = 0;         // after guided search and refit
   bool merge = false;      // the loop keyframe lies in another map of the atlas
   bool from_tracking = false;  // suggested by tracking (LoopCloser::suggestMerge), not recognised here
-  // A merge from two weaker fits that agreed (atlas.merge_evidence_min_inliers): the keyframe
-  // whose earlier fit this one agreed with; 0 otherwise.
-  uint64_t agreeing_keyframe = 0;
 };
 
 struct LoopDetectionStats {
