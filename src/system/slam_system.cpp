@@ -410,15 +410,7 @@ void SlamSystem::pushDenseKeyframe(const map::Keyframe* kf, const map::Frame& fr
     if (dense_world_map_ < 0) dense_world_map_ = kf->map_id;
     const int world = map_.liveMap(dense_world_map_);
     dense_held_.push_back({kf, std::move(dense_kf)});
-    for (auto it = dense_held_.begin(); it != dense_held_.end();) {
-      if (it->first->map_id != world) {
-        ++it;
-        continue;
-      }
-      it->second->T_w_c = map::keyframeTcw(it->first).inverse();
-      ready.push_back(std::move(it->second));
-      it = dense_held_.erase(it);
-    }
+    releaseHeldDenseKeyframes(world, ready);
     while (dense_held_.size() > kMaxHeldDenseKeyframes) {  // bounded memory: the oldest go
       dense_held_.erase(dense_held_.begin());
       ++dense_held_dropped_;
@@ -426,6 +418,18 @@ void SlamSystem::pushDenseKeyframe(const map::Keyframe* kf, const map::Frame& fr
   }
   dense_->updatePoses(poses);
   for (auto& k : ready) dense_->push(std::move(k));
+}
+
+void SlamSystem::releaseHeldDenseKeyframes(int world, std::vector<std::shared_ptr<dense::DenseKeyframe>>& ready) {
+  for (auto it = dense_held_.begin(); it != dense_held_.end();) {
+    if (it->first->map_id != world) {
+      ++it;
+      continue;
+    }
+    it->second->T_w_c = map::keyframeTcw(it->first).inverse();
+    ready.push_back(std::move(it->second));
+    it = dense_held_.erase(it);
+  }
 }
 
 void SlamSystem::finish(const FinishControl& control) {
@@ -474,6 +478,16 @@ void SlamSystem::finish(const FinishControl& control) {
   if (!interpolated.empty())
     spdlog::debug("finish: {} frames interpolated between poses that merges brought into one map",
                   interpolated.size());
+  // Keyframes held for a map that a merge at the end of the run brought into the dense map's world:
+  // no later keyframe hands them on (pushDenseKeyframe does that while the run goes on).
+  if (dense_ && dense_world_map_ >= 0 && !dense_held_.empty()) {
+    std::vector<std::shared_ptr<dense::DenseKeyframe>> ready;
+    {
+      std::shared_lock lock(map_.mutex());
+      releaseHeldDenseKeyframes(map_.liveMap(dense_world_map_), ready);
+    }
+    for (auto& k : ready) dense_->push(std::move(k));
+  }
   stage("dense");
   if (dense_) dense_->waitUntilIdle();
   rethrowWorkerFailure();

@@ -181,6 +181,9 @@ class SlamSystem {
   // world (tracking thread only).
   void pushDenseKeyframe(const map::Keyframe* kf, const map::Frame& frame, const cv::Mat& bgr,
                          const cv::Mat& labels);
+  // Moves the held dense keyframes whose map is now `world` (merged into the dense map's world)
+  // into `ready`, with their keyframes' poses. Map lock held (shared); tracking thread only.
+  void releaseHeldDenseKeyframes(int world, std::vector<std::shared_ptr<dense::DenseKeyframe>>& ready);
 
   SystemOptions options_;
   RunSettings settings_;

@@ -15,6 +15,7 @@
 #include "sim/synthetic_scene.hpp"
 #include "system/slam_system.hpp"
 #include "system_support.hpp"
+#include "support/temp_dir.hpp"
 
 namespace desslam {
 namespace {
@@ -25,6 +26,7 @@ struct AtlasRun {
   nlohmann::json statistics;
   std::vector<bool> tracked;    // per frame given to the system
   std::vector<bool> predicted;  // ... given the motion prediction as its pose
+  nlohmann::json dense;         // exportDenseMap's summary, when options.dense.enabled
 };
 
 // Frames of `path` rendered in `scene` and fed in order; `edit(i, frame)` may change frame i,
@@ -42,7 +44,11 @@ AtlasRun runAtlas(const sim::SyntheticScene& scene, const Trajectory& path, cons
     slam.processFrame(path[i].timestamp, image.bgr, image.depth, "frame" + std::to_string(i));
   }
   slam.finish();
-  AtlasRun run{slam.cameraTrajectory(), slam.cameraTrajectoryAll(), slam.statistics(), {}, {}};
+  AtlasRun run{slam.cameraTrajectory(), slam.cameraTrajectoryAll(), slam.statistics(), {}, {}, {}};
+  if (options.dense.enabled) {
+    const test::TempDir out;
+    run.dense = slam.exportDenseMap(out.path(), false);
+  }
   for (const system::FrameStats& f : slam.frameStats()) {
     run.tracked.push_back(f.tracked);
     run.predicted.push_back(f.predicted);
@@ -174,6 +180,7 @@ void secondMapIsMergedWithoutPlaceRecognitionOnline(MergedBy by, bool determinis
   options.atlas.merge_min_consistent_keyframes = 100;
   options.atlas.other_map_search_s = by == MergedBy::kTracking ? 5.0 : 0.0;
   options.atlas.final_merge_search = by == MergedBy::kEndOfRunSearch;
+  options.dense.enabled = true;  // the dense map must follow every merge, the last ones too
   const sim::SyntheticScene scene(sim::SceneOptions{}, options.camera);
   const Trajectory path = coverTurnAndComeBackPath(options.camera.fps);
   const AtlasRun run =
@@ -200,6 +207,9 @@ void secondMapIsMergedWithoutPlaceRecognitionOnline(MergedBy by, bool determinis
   }
   EXPECT_EQ(liveMaps(run.statistics), 1u);
   EXPECT_EQ(run.main_map.size(), kCoverTurnFrames);
+  // The second map's keyframes, held out of the dense map until the merge, are in it now.
+  std::printf("dense map: %s\n", run.dense.dump().c_str());
+  EXPECT_EQ(run.dense.value("keyframes_of_other_maps_left_out", -1), 0);
   Trajectory tracked;
   for (const StampedPose& p : run.main_map)
     for (size_t i = 0; i < path.size(); ++i)
