@@ -117,24 +117,26 @@ std::optional<LoopMatch> LoopDetector::detect(map::Keyframe* kf) {
     std::erase_if(candidates, [&](const map::Keyframe* c) { return c->map_id == kf->map_id; });
   stats_.consistent_candidates += candidates.size();
   for (map::Keyframe* candidate : candidates) {
-    std::optional<Fit> fit = verify(kf, candidate, encoding.features);
-    if (fit && fit->confirmed) {
-      fit->match.merge = candidate->map_id != kf->map_id;
-      ++stats_.loops_detected;
-      if (fit->match.merge) ++stats_.merges_detected;
-      return std::move(fit->match);
-    }
-    if (fit) {
-      if (std::optional<LoopMatch> merge = mergeFromEvidence(kf, *fit)) {
-        ++stats_.loops_detected;
-        ++stats_.merges_detected;
-        ++stats_.merges_by_agreement;
-        return merge;
-      }
-    }
+    if (std::optional<LoopMatch> match = accept(kf, verify(kf, candidate, encoding.features))) return match;
     ++stats_.rejected_geometry;
   }
   return std::nullopt;
+}
+
+std::optional<LoopMatch> LoopDetector::accept(const map::Keyframe* kf, std::optional<Fit> fit) {
+  if (!fit) return std::nullopt;
+  std::optional<LoopMatch> match;
+  if (fit->confirmed) {
+    match = std::move(fit->match);
+    match->merge = match->loop->map_id != kf->map_id;
+  } else {
+    match = mergeFromEvidence(kf, *fit);
+    if (match) ++stats_.merges_by_agreement;
+  }
+  if (!match) return std::nullopt;
+  ++stats_.loops_detected;
+  if (match->merge) ++stats_.merges_detected;
+  return match;
 }
 
 std::optional<LoopMatch> LoopDetector::searchMergeAcrossMaps() {
@@ -157,21 +159,10 @@ std::optional<LoopMatch> LoopDetector::searchMergeAcrossMaps() {
       const place::BowEncoding encoding = encodingOf(kf);
       for (const place::KeyframeCandidate& c : database_.query(encoding.bow, query)) {
         if (c.keyframe->bad || c.keyframe->map_id == kf->map_id) continue;
-        std::optional<Fit> fit = verify(kf, c.keyframe, encoding.features);
-        if (!fit) continue;
-        std::optional<LoopMatch> merge;
-        if (fit->confirmed) {
-          merge = std::move(fit->match);
-          merge->merge = true;
-        } else {
-          merge = mergeFromEvidence(kf, *fit);
-          if (merge) ++stats_.merges_by_agreement;
-        }
+        std::optional<LoopMatch> merge = accept(kf, verify(kf, c.keyframe, encoding.features));
         if (!merge) continue;
         spdlog::debug("loop: end of run: keyframe {} (map {}) found in map {} ({} inliers)", kf->id, kf->map_id,
                       c.keyframe->map_id, merge->inliers);
-        ++stats_.loops_detected;
-        ++stats_.merges_detected;
         return merge;
       }
     }
@@ -190,10 +181,7 @@ std::optional<LoopMatch> LoopDetector::mergeFromEvidence(const map::Keyframe* kf
     // Map ids that are still the same name the same worlds: a merged map's id goes away.
     if (e.map_id != now.map_id || e.other_map_id != now.other_map_id || e.keyframe_id == now.keyframe_id) continue;
     if (std::abs(now.timestamp - e.timestamp) < kMapTransformAgreementS) continue;
-    const SE3 difference = e.T_wother_wmap.inverse() * now.T_wother_wmap;
-    if (difference.translation().norm() > kMapTransformAgreementM ||
-        difference.rotationAngle() > kMapTransformAgreementDeg * M_PI / 180)
-      continue;
+    if (!mapTransformsAgree(e.T_wother_wmap, now.T_wother_wmap)) continue;
     // Both fits' inliers together must make a loop's worth of matches under one transform.
     std::vector<PointCorrespondence> both = now.inliers;
     both.insert(both.end(), e.inliers.begin(), e.inliers.end());

@@ -94,6 +94,9 @@ class LoopDetector {
     std::vector<int> inlier_features;
   };
   std::optional<Fit> verify(map::Keyframe* kf, map::Keyframe* candidate, const place::FeatureVector& kf_features);
+  // The loop or merge a fit makes (confirmed, or merged from agreeing evidence), counted in the
+  // stats; nothing otherwise. Map lock held (shared).
+  std::optional<LoopMatch> accept(const map::Keyframe* kf, std::optional<Fit> fit);
   // A merge candidate's fit short of a loop's bars, with the evidence kept from earlier keyframes:
   // when one of them agrees on the transform between the two maps (kMapTransformAgreement*) and
   // the inliers of both, refitted together, reach loop.min_loop_matches, the merge; else the fit

@@ -2,7 +2,10 @@
 // the lowest one both link.
 #pragma once
 
+#include <cmath>
+
 #include "core/option_fields.hpp"
+#include "core/se3.hpp"
 
 namespace desslam {
 
@@ -85,5 +88,11 @@ struct AtlasOptions {
 inline constexpr double kMapTransformAgreementM = 0.05;
 inline constexpr double kMapTransformAgreementDeg = 3.0;
 inline constexpr double kMapTransformAgreementS = 0.15;
+// Whether two estimates of the same transform between two maps agree (the distance and angle above).
+inline bool mapTransformsAgree(const SE3& T_a, const SE3& T_b) {
+  const SE3 difference = T_a.inverse() * T_b;
+  return difference.translation().norm() <= kMapTransformAgreementM &&
+         difference.rotationAngle() <= kMapTransformAgreementDeg * M_PI / 180;
+}
 
 }  // namespace desslam

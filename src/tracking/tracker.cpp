@@ -37,9 +37,9 @@ constexpr size_t kRecoveryKeyframes = 8;   // when lost, the newest keyframes tr
 constexpr double kStillTranslation = 0.005;        // metres per frame below which motion is negligible
 constexpr double kStillRotation = 0.5 * M_PI / 180;  // radians per frame
 constexpr size_t kBridgeVelocityFrames = 5;  // tracked frames whose average motion bridges a loss
-// Another map found again (findInOtherMap) is handed on for merging only when two sightings agree
-// (map/atlas_options.hpp: kMapTransformAgreement*).
-constexpr size_t kOtherMapsSearched = 3;  // per frame, the largest other maps
+// findInOtherMap: per frame, the largest other maps searched (a merge needs two sightings that
+// agree: map/atlas_options.hpp, mapTransformsAgree).
+constexpr size_t kOtherMapsSearched = 3;
 // Frame-to-frame odometry (trackWithOdometry): descriptor matching between consecutive frames,
 // whose descriptors barely change, within a window around the same pixel.
 constexpr int kOdometryMaxDescriptorDistance = 64;
@@ -665,9 +665,7 @@ std::optional<FoundInOtherMap> Tracker::findInOtherMap(const map::Frame& frame) 
     first_sighting_ = sighting;
     return std::nullopt;
   }
-  const SE3 difference = first_sighting_->T_wother_wactive.inverse() * sighting.T_wother_wactive;
-  if (difference.translation().norm() > kMapTransformAgreementM ||
-      difference.rotationAngle() > kMapTransformAgreementDeg * M_PI / 180) {
+  if (!mapTransformsAgree(first_sighting_->T_wother_wactive, sighting.T_wother_wactive)) {
     first_sighting_ = sighting;  // the earlier one may have been the wrong one
     return std::nullopt;
   }
