@@ -235,7 +235,7 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   if (outcome.odometry) ++odometry_poses_;
   if (!ok) {
     // The run of frames tracked after an earlier loss ends here: their motion is all there is.
-    predictBackwards(outcome, /*track_ended=*/true);
+    predictBackwards(outcome, TrackEnd::kLost);
     if (state_ == TrackingState::kOk) {
       ++losses_;
       lost_since_ = frame.timestamp;
@@ -373,7 +373,7 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     if (recovering && back_in_last_map) before_loss = StampedPose{last_frame_.timestamp, last_frame_.T_c_w.inverse()};
     settle(frame, before_loss, outcome);
   }
-  predictBackwards(outcome, /*track_ended=*/false);
+  predictBackwards(outcome, TrackEnd::kNotYet);
   // Visual-odometry matches only serve the next frame's motion-model search.
   last_frame_ = frame;
   pushHistory(frame, reference_keyframe_, last_T_c_r_);
@@ -470,7 +470,7 @@ void Tracker::settle(const map::Frame& found, const std::optional<StampedPose>& 
   BackwardPrediction waiting{{}, next.id};
   for (; it != frames.rend(); ++it) {
     if (it->predicted || next.timestamp - it->frame.timestamp > options_.tracking.predict_back_s) break;
-    waiting.frames.emplace_back(it->frame.id, it->frame.timestamp);
+    waiting.frames.push_back(std::move(*it));
   }
   if (!waiting.frames.empty()) backward_prediction_ = std::move(waiting);
   if (!outcome.backfilled.empty() || !outcome.interpolated.empty() || backward_prediction_)
@@ -480,7 +480,7 @@ void Tracker::settle(const map::Frame& found, const std::optional<StampedPose>& 
                   backward_prediction_ ? backward_prediction_->anchor_frame_id : next.id);
 }
 
-void Tracker::predictBackwards(TrackOutcome& outcome, bool track_ended) {
+void Tracker::predictBackwards(TrackOutcome& outcome, TrackEnd end) {
   if (!backward_prediction_) return;
   // The anchor's record and those of the frames tracked right after it (records_ is in frame order).
   auto anchor = std::find_if(records_.rbegin(), records_.rend(), [&](const FrameRecord& r) {
@@ -496,11 +496,21 @@ void Tracker::predictBackwards(TrackOutcome& outcome, bool track_ended) {
          (last + 1)->reference != nullptr)
     ++last;
   const auto tracked_after = last - first;
-  if (!track_ended && tracked_after < static_cast<std::ptrdiff_t>(kBridgeVelocityFrames)) return;
-  const BackwardPrediction waiting = std::move(*backward_prediction_);
+  if (end == TrackEnd::kNotYet && tracked_after < static_cast<std::ptrdiff_t>(kBridgeVelocityFrames)) return;
+  BackwardPrediction waiting = std::move(*backward_prediction_);
   backward_prediction_.reset();
-  // One step's motion is too noisy to extrapolate over a third of a second.
-  if (tracked_after < 2 || !(last->timestamp - first->timestamp > 1e-6)) return;
+  // One step's motion is too noisy to extrapolate over a third of a second. Lost again right
+  // after the anchor, the frames wait for the next frame tracked: a map that lived a frame or two
+  // between two losses (people crossing again) otherwise cost them their poses for good (a
+  // fr1_desk composite with 5-frame-old masks: 7 frames between a loss and such a map).
+  if (tracked_after < 2 || !(last->timestamp - first->timestamp > 1e-6)) {
+    if (end == TrackEnd::kLost) {
+      for (UnsettledFrame& f : waiting.frames) unsettled_.push_front(std::move(f));
+      spdlog::debug("tracking: {} frames before frame {} wait for the next frame tracked ({} tracked after it)",
+                    waiting.frames.size(), waiting.anchor_frame_id, tracked_after);
+    }
+    return;
+  }
   std::shared_lock lock(map_.mutex());
   const map::Keyframe* reference = first->reference;
   const int map_id = first->map_id;  // the anchor's, as it was tracked
@@ -508,7 +518,9 @@ void Tracker::predictBackwards(TrackOutcome& outcome, bool track_ended) {
   const SE3 T0 = first->T_c_r * map::keyframeTcw(reference);
   const SE3 motion = last->T_c_r * map::keyframeTcw(last->reference) * T0.inverse();
   const double span_s = last->timestamp - first->timestamp;
-  for (const auto& [frame_id, timestamp] : waiting.frames) {
+  for (const UnsettledFrame& f : waiting.frames) {
+    const uint64_t frame_id = f.frame.id;
+    const Timestamp timestamp = f.frame.timestamp;
     auto r = std::find_if(records_.rbegin(), records_.rend(),
                           [&](const FrameRecord& record) { return record.frame_id == frame_id; });
     if (r == records_.rend() || r->reference != nullptr) continue;
@@ -522,7 +534,7 @@ void Tracker::predictBackwards(TrackOutcome& outcome, bool track_ended) {
                 outcome.predicted_backwards.size(), waiting.anchor_frame_id, tracked_after);
 }
 
-void Tracker::finishBackwardPrediction(TrackOutcome& outcome) { predictBackwards(outcome, /*track_ended=*/true); }
+void Tracker::finishBackwardPrediction(TrackOutcome& outcome) { predictBackwards(outcome, TrackEnd::kRunOver); }
 
 std::vector<FrameRecord> Tracker::interpolateAcrossMerges() {
   std::vector<FrameRecord> interpolated;

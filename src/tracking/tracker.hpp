@@ -166,18 +166,28 @@ class Tracker {
   // that lie after before_loss (the last tracked frame, given when `found` is in its map) are
   // interpolated between it and the oldest one settled. Clears them.
   void settle(const map::Frame& found, const std::optional<StampedPose>& before_loss, TrackOutcome& outcome);
+  // Frames since the last tracked one (oldest first, unsettled_): without a pose, or with a
+  // predicted one (then the map it was predicted in).
+  struct UnsettledFrame {
+    map::Frame frame;
+    bool predicted = false;
+    int map_id = -1;
+  };
   // Frames settle() left without a pose, just before the oldest frame it gave one (the anchor),
   // waiting for the motion of the frames tracked after the anchor (tracking.predict_back_s).
   struct BackwardPrediction {
-    std::vector<std::pair<uint64_t, Timestamp>> frames;  // frame id, timestamp
+    std::vector<UnsettledFrame> frames;  // newest first
     uint64_t anchor_frame_id = 0;
   };
   std::optional<BackwardPrediction> backward_prediction_;
   // Gives backward_prediction_'s frames their poses: the motion from the anchor over the
   // kBridgeVelocityFrames frames tracked after it, extrapolated back from the anchor's pose. Waits
-  // for those frames unless `track_ended` (lost again, or the run is over): then at least two
-  // frames after the anchor must have been tracked, or the frames keep no pose.
-  void predictBackwards(TrackOutcome& outcome, bool track_ended);
+  // for those frames until the track ends (lost again, or the run is over): then at least two
+  // frames after the anchor must have been tracked. With fewer (a map that lived a frame or two
+  // between two losses) the frames go back to unsettled_, for the next frame tracked (in this map
+  // or the next one) to settle with the frames lost since.
+  enum class TrackEnd { kNotYet, kLost, kRunOver };
+  void predictBackwards(TrackOutcome& outcome, TrackEnd end);
   bool trackReferenceKeyframe(map::Frame& frame);
   // Frame-to-frame odometry against last_frame_ (tracking.odometry_min_inliers): descriptor
   // matches of the frame's static features with the last frame's depth-backed ones, then
@@ -262,13 +272,6 @@ class Tracker {
     SE3 T_c_r;
   };
   std::deque<HistoryFrame> history_;
-  // Frames since the last tracked one (oldest first): without a pose, or with a predicted one
-  // (then the map it was predicted in).
-  struct UnsettledFrame {
-    map::Frame frame;
-    bool predicted = false;
-    int map_id = -1;
-  };
   std::deque<UnsettledFrame> unsettled_;
   void pushHistory(const map::Frame& frame, const map::Keyframe* reference, const SE3& T_c_r);
   std::vector<FrameRecord> records_;

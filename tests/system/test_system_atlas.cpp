@@ -456,6 +456,42 @@ TEST(SystemAtlas, CoveredFirstFramesHaveNoPoseWithoutBackwardPrediction) {
   coveredFirstFramesArePredictedBackwards(false);
 }
 
+// As above, but the lens is uncovered for one frame only before it is covered again (people
+// crossing the view twice): a map starts there and is lost at once, with no motion yet to
+// extrapolate. The first covered frames wait for the next frame tracked after the second cover
+// and get their poses from the motion after it.
+TEST(SystemAtlas, FramesBeforeAMapLostAtOnceWaitForTheNextFrameTracked) {
+  constexpr size_t kFirstCover = 4, kOpen = 4, kSecondCoverLast = 7, kFrames = 40;
+  SystemOptions options = test::syntheticSystemOptions();
+  const sim::SyntheticScene scene(sim::SceneOptions{}, options.camera);
+  const Trajectory path = sim::sweepPath(kFrames, options.camera.fps);
+  const auto first_cover = coveredLens(0, kFirstCover - 1);
+  const auto second_cover = coveredLens(kOpen + 1, kSecondCoverLast);
+  const AtlasRun run = runAtlas(
+      scene, path, options,
+      [&](size_t i, sim::RenderedFrame& f) {
+        first_cover(i, f);
+        second_cover(i, f);
+      },
+      noFrameWithheld);
+  const AtlasTrajectory& all = run.all;
+  const nlohmann::json& counts = run.statistics["counts"];
+  std::printf("a map lost at once: %zu of %zu frames with a pose, %zu in the main map, predicted backwards %d, "
+              "interpolated %d\n", all.size(), kFrames, run.main_map.size(),
+              counts["backward_predicted_poses"].get<int>(), counts["interpolated_poses"].get<int>());
+  EXPECT_TRUE(run.tracked[kOpen]) << "a map starts at the open frame";
+  for (size_t i = kOpen + 1; i <= kSecondCoverLast; ++i) EXPECT_FALSE(run.tracked[i]) << "frame " << i;
+  EXPECT_EQ(all.size(), kFrames) << "every frame has a pose, the first covered ones too";
+  EXPECT_GE(counts["backward_predicted_poses"].get<int>(), static_cast<int>(kFirstCover));
+  // The covered first frames, in the world of the map they were predicted in, against the truth.
+  const eval::AteResult ate = eval::computeAte(path, run.main_map);
+  const auto [first_with_pose, worst_m] = framesInMainMap(path, run, ate, 0, kFirstCover);
+  std::printf("first covered frames in the main map: %zu, worst %.1f mm, ATE %.2f mm\n", first_with_pose,
+              1000 * worst_m, 1000 * ate.translation_m.rmse);
+  EXPECT_EQ(first_with_pose, kFirstCover);
+  EXPECT_LT(worst_m, 0.02);
+}
+
 // The lens is covered (black, no depth) for 0.23 s while the camera doubles its speed: the frames
 // of the cover get the motion before it as their pose (tracking.predict_through_loss_s), which
 // falls behind. Once the camera is found again in the same map, they lie on the motion between
