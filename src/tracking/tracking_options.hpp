@@ -82,8 +82,9 @@ struct TrackingOptions {
   // after it, extrapolated backwards (report: "predicted_backwards"): the mirror of
   // predict_through_loss_s, for the frames before a map could start (the first frames of a run, or
   // a new map's after a loss) that no feature search reaches. They get it once five frames after
-  // that one have poses (or when the track is lost again after at least two), in that frame's map.
-  // Nothing is tracked from these poses: they are not in the map.
+  // that one have poses (or when the track is lost again after at least two), in that frame's map;
+  // lost again sooner, they wait for the next frame tracked and are settled with the frames lost
+  // since. Nothing is tracked from these poses: they are not in the map.
   double predict_back_s = 0.3;
   // When the map does not give a pose (motion model, reference keyframe, relocalisation), the
   // frame's static features are matched by descriptor against the last tracked frame's
