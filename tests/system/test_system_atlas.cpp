@@ -167,12 +167,12 @@ TEST(SystemAtlas, CoveredCameraMergeWithMappingAndLoopThreads) { coveredCameraSt
 
 // The same path, but place recognition cannot merge maps while keyframes arrive
 // (atlas.merge_min_consistent_keyframes out of reach):
-// - kByTracking: the second map, started after the cover, is merged because tracking finds the
+// - kTracking: the second map, started after the cover, is merged because tracking finds the
 //   camera in the first map too as it turns back, within atlas.other_map_search_s of that map's
 //   start (here long enough to cover the turn), at two frames that agree on the transform;
-// - kAtTheEnd: without that search, the maps are merged at the end of the run, when every
+// - kEndOfRunSearch: without that search, the maps are merged at the end of the run, when every
 //   keyframe of the second map is searched for in the first (atlas.final_merge_search);
-// - kNever: without either, the two maps stay apart.
+// - kNothing: without either, the two maps stay apart.
 // Every frame merged then has a pose in one world, as accurate as with place recognition online.
 enum class MergedBy { kTracking, kEndOfRunSearch, kNothing };
 void secondMapIsMergedWithoutPlaceRecognitionOnline(MergedBy by, bool deterministic) {
