@@ -269,7 +269,7 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
         std::shared_lock lock(map_.mutex());
         T_c_r = frame.T_c_w * map::keyframeTcw(reference_keyframe_).inverse();
       }
-      records_.push_back({frame.id, frame.timestamp, reference_keyframe_, T_c_r, active_map_});
+      records_.push_back({frame.id, frame.timestamp, reference_keyframe_, T_c_r, active_map_, PoseSource::kPredicted});
       ++predicted_poses_;
       outcome.predicted = true;
       keepUnsettled(frame, /*predicted=*/true);
@@ -362,7 +362,7 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     last_T_c_r_ = frame.T_c_w * reference_keyframe_->T_c_w.inverse();
   }
   last_reference_ = reference_keyframe_;
-  records_.push_back({frame.id, frame.timestamp, reference_keyframe_, last_T_c_r_, active_map_});
+  records_.push_back({frame.id, frame.timestamp, reference_keyframe_, last_T_c_r_, active_map_, PoseSource::kTracked});
   if (!recent_poses_.empty() && recent_poses_.back().timestamp >= frame.timestamp) recent_poses_.clear();
   if (recovering) recent_poses_.clear();  // the frames before the gap may be in another map
   recent_poses_.push_back({frame.timestamp, reference_keyframe_, last_T_c_r_, frame.T_c_w});
@@ -399,7 +399,7 @@ void Tracker::settle(const map::Frame& found, const std::optional<StampedPose>& 
   if (unsettled_.empty()) return;
   std::deque<UnsettledFrame> frames;
   frames.swap(unsettled_);
-  const auto setRecord = [&](uint64_t frame_id, Timestamp timestamp, const SE3& T_c_w) {
+  const auto setRecord = [&](uint64_t frame_id, Timestamp timestamp, const SE3& T_c_w, PoseSource source) {
     SE3 T_c_r;
     {
       std::shared_lock lock(map_.mutex());
@@ -407,7 +407,7 @@ void Tracker::settle(const map::Frame& found, const std::optional<StampedPose>& 
     }
     for (auto r = records_.rbegin(); r != records_.rend(); ++r)
       if (r->frame_id == frame_id) {
-        *r = {frame_id, timestamp, reference_keyframe_, T_c_r, active_map_};
+        *r = {frame_id, timestamp, reference_keyframe_, T_c_r, active_map_, source};
         break;
       }
   };
@@ -441,7 +441,7 @@ void Tracker::settle(const map::Frame& found, const std::optional<StampedPose>& 
                     matches, inliers);
       break;
     }
-    setRecord(frame.id, frame.timestamp, frame.T_c_w);
+    setRecord(frame.id, frame.timestamp, frame.T_c_w, PoseSource::kBackfilled);
     outcome.backfilled.push_back(frame.id);
     ++backfilled_poses_;
     T_earlier_later = frame.T_c_w * next.T_c_w.inverse();
@@ -460,7 +460,7 @@ void Tracker::settle(const map::Frame& found, const std::optional<StampedPose>& 
       if (frame.timestamp <= before_loss->timestamp || !(span > 1e-6)) break;
       if (it->predicted && it->map_id != active_map_) break;
       const double s = (frame.timestamp - before_loss->timestamp) / span;
-      setRecord(frame.id, frame.timestamp, SE3::exp(motion.log() * s) * T0);
+      setRecord(frame.id, frame.timestamp, SE3::exp(motion.log() * s) * T0, PoseSource::kInterpolated);
       outcome.interpolated.push_back(frame.id);
       ++interpolated_poses_;
     }
@@ -525,7 +525,7 @@ void Tracker::predictBackwards(TrackOutcome& outcome, TrackEnd end) {
                           [&](const FrameRecord& record) { return record.frame_id == frame_id; });
     if (r == records_.rend() || r->reference != nullptr) continue;
     const SE3 T_c_w = SE3::exp(motion.log() * ((timestamp - first->timestamp) / span_s)) * T0;
-    *r = {frame_id, timestamp, reference, T_c_w * T_w_r, map_id};
+    *r = {frame_id, timestamp, reference, T_c_w * T_w_r, map_id, PoseSource::kPredictedBackwards};
     outcome.predicted_backwards.push_back(frame_id);
     ++backward_predicted_poses_;
   }
@@ -538,9 +538,49 @@ void Tracker::finishBackwardPrediction(TrackOutcome& outcome) { predictBackwards
 
 std::vector<FrameRecord> Tracker::interpolateAcrossMerges() {
   std::vector<FrameRecord> interpolated;
+  std::shared_lock lock(map_.mutex());
+  // Records first..last-1 (and their map) from the motion between records a and b.
+  const auto interpolateBetween = [&](const FrameRecord& a, const FrameRecord& b, size_t first, size_t last) {
+    const double span = b.timestamp - a.timestamp;
+    if (!(span > 1e-6)) return;
+    const SE3 T_a_w = a.T_c_r * map::keyframeTcw(a.reference);
+    const SE3 T_b_w = b.T_c_r * map::keyframeTcw(b.reference);
+    const SE3 motion = T_b_w * T_a_w.inverse();
+    const SE3 T_w_ref = map::keyframeTcw(a.reference).inverse();
+    for (size_t k = first; k < last; ++k) {
+      FrameRecord& r = records_[k];
+      const double s = (r.timestamp - a.timestamp) / span;
+      r.T_c_r = SE3::exp(motion.log() * s) * T_a_w * T_w_ref;
+      r.reference = a.reference;
+      r.map_id = a.map_id;
+      r.source = PoseSource::kInterpolated;
+      interpolated.push_back(r);
+      ++interpolated_poses_;
+    }
+  };
+
+  // 1. Predictions between two measured poses close enough in time, in one map now.
+  const double predictions_span_s = options_.tracking.interpolate_predictions_within_s;
+  if (predictions_span_s > 0) {
+    std::optional<size_t> a;  // the last measured record
+    for (size_t b = 0; b < records_.size(); ++b) {
+      if (!records_[b].measured()) continue;
+      if (a && b > *a + 1 && records_[b].timestamp - records_[*a].timestamp <= predictions_span_s &&
+          records_[*a].reference->map_id == records_[b].reference->map_id) {
+        // Interpolated frames (settle() did, between the same two) stay as they are.
+        const bool guesses_only = std::all_of(records_.begin() + *a + 1, records_.begin() + b, [](const FrameRecord& r) {
+          return r.source == PoseSource::kNone || r.source == PoseSource::kPredicted ||
+                 r.source == PoseSource::kPredictedBackwards;
+        });
+        if (guesses_only) interpolateBetween(records_[*a], records_[b], *a + 1, b);
+      }
+      a = b;
+    }
+  }
+
+  // 2. Frames without a pose between two with one, in one map now.
   const double max_span_s = 2 * options_.tracking.backfill_max_s;
   if (max_span_s <= 0) return interpolated;
-  std::shared_lock lock(map_.mutex());
   for (size_t i = 1; i < records_.size(); ++i) {
     // A run of frames without a pose starts at i; `a` is the frame with one before it.
     if (records_[i].reference != nullptr || records_[i - 1].reference == nullptr) continue;
@@ -552,22 +592,16 @@ std::vector<FrameRecord> Tracker::interpolateAcrossMerges() {
            (records_[j].reference == nullptr || records_[j].reference->map_id != a.reference->map_id))
       ++j;
     if (j == records_.size() || records_[j].timestamp - a.timestamp > max_span_s) continue;
-    const FrameRecord& b = records_[j];
-    const double span = b.timestamp - a.timestamp;
-    if (!(span > 1e-6)) continue;
-    const SE3 T_a_w = a.T_c_r * map::keyframeTcw(a.reference);
-    const SE3 T_b_w = b.T_c_r * map::keyframeTcw(b.reference);
-    const SE3 motion = T_b_w * T_a_w.inverse();
-    const SE3 T_w_ref = map::keyframeTcw(a.reference).inverse();
-    for (size_t k = i; k < j; ++k) {
-      FrameRecord& r = records_[k];
-      if (r.reference != nullptr) continue;
-      const double s = (r.timestamp - a.timestamp) / span;
-      r.T_c_r = SE3::exp(motion.log() * s) * T_a_w * T_w_ref;
-      r.reference = a.reference;
-      r.map_id = a.map_id;
-      interpolated.push_back(r);
-      ++interpolated_poses_;
+    // Only the frames without a pose: those tracked in another map keep theirs.
+    for (size_t k = i; k < j;) {
+      if (records_[k].reference != nullptr) {
+        ++k;
+        continue;
+      }
+      size_t end = k;
+      while (end < j && records_[end].reference == nullptr) ++end;
+      interpolateBetween(a, records_[j], k, end);
+      k = end;
     }
   }
   return interpolated;
@@ -761,7 +795,7 @@ bool Tracker::initialize(map::Frame& frame, TrackOutcome& outcome, const char* r
   last_frame_ = frame;
   velocity_.reset();
   pushHistory(frame, kf, SE3::identity());
-  records_.push_back({frame.id, frame.timestamp, kf, SE3::identity(), active_map_});
+  records_.push_back({frame.id, frame.timestamp, kf, SE3::identity(), active_map_, PoseSource::kTracked});
   ++maps_started_;
   // A map started at a loss: the camera may still be where another map is (findInOtherMap()).
   if (maps_started_ > 1) search_other_maps_until_ = frame.timestamp + options_.atlas.other_map_search_s;

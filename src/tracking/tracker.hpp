@@ -24,6 +24,17 @@ namespace desslam::tracking {
 
 enum class TrackingState { kNotInitialized, kOk, kLost };
 
+// Where a frame's pose came from. Tracked and backfilled poses are measured (the frame's own
+// features against the map); the others are guesses from the motion around the frame.
+enum class PoseSource : uint8_t {
+  kNone,                // no pose
+  kTracked,             // tracked (a map's first frame too)
+  kBackfilled,          // tracked backwards from a frame found again (tracking.backfill_max_s)
+  kPredicted,           // the motion before a loss, extrapolated (tracking.predict_through_loss_s)
+  kPredictedBackwards,  // the motion after a loss, extrapolated backwards (tracking.predict_back_s)
+  kInterpolated,        // between two poses around it
+};
+
 // What the trajectory needs of each frame: its pose relative to its reference keyframe, so that
 // the final trajectory follows the keyframes' optimised poses.
 struct FrameRecord {
@@ -32,6 +43,9 @@ struct FrameRecord {
   const map::Keyframe* reference = nullptr;  // null when the frame was not tracked
   SE3 T_c_r;
   int map_id = -1;  // the atlas map it was tracked in (-1: none); merges may have moved it since
+  PoseSource source = PoseSource::kNone;
+
+  bool measured() const { return source == PoseSource::kTracked || source == PoseSource::kBackfilled; }
 };
 
 // The camera, tracked in a map started at a loss, found in another map of the atlas too
@@ -101,13 +115,15 @@ class Tracker {
   // The end of a run: frames still waiting for the motion after their loss
   // (tracking.predict_back_s) get the motion of the frames tracked since, when at least two were.
   void finishBackwardPrediction(TrackOutcome& outcome);
-  // The end of a run, all merges done (no frame is being tracked): frames without a pose between
-  // two frames with one (tracked, or predicted through a loss) that ended in the same map, at most
-  // twice tracking.backfill_max_s apart, get poses interpolated between those two; frames tracked
-  // in another map between them (one started in the loss and lost again) keep theirs. Online,
-  // settle() can do this only when the camera is found again in the map it was lost in. Predicted
-  // poses stay: replacing them too was tried, and the first frames of a merged map can be further
-  // off than the prediction (13 cm on a fr1_xyz composite, making its ATE worse in 3 of 5 runs).
+  // The end of a run, all merges done (no frame is being tracked). Online, settle() can interpolate
+  // only when the camera is found again in the map it was lost in; now:
+  //  1. frames with a predicted pose (or none) between two measured ones that ended in the same
+  //     map, at most tracking.interpolate_predictions_within_s apart with no other measured frame
+  //     between them, get poses interpolated between those two;
+  //  2. frames still without a pose between two frames with one (any kind) that ended in the same
+  //     map, at most twice tracking.backfill_max_s apart, get poses interpolated between those two;
+  //     frames tracked in another map between them (one started in the loss and lost again) keep
+  //     theirs.
   // Returns their new records.
   std::vector<FrameRecord> interpolateAcrossMerges();
   int mapsStarted() const { return maps_started_; }           // maps of the atlas this tracker started

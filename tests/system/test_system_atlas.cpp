@@ -165,6 +165,53 @@ TEST(SystemAtlas, CoveredCameraStartsASecondMapThatIsMergedBack) { coveredCamera
 // while tracking goes on (Map::worldGate; run under ThreadSanitizer too).
 TEST(SystemAtlas, CoveredCameraMergeWithMappingAndLoopThreads) { coveredCameraStartsASecondMapThatIsMergedBack(false); }
 
+// The same path with a cover of 0.3 s: the camera turns round at once as the cover starts. The
+// covered frames get the prediction from the lap before (tracking.predict_through_loss_s), which
+// goes on along the lap while the camera stands; the first frame after the cover faces the side no
+// keyframe saw and starts a second map, merged into the first when the camera comes back. In one
+// world at the end, the covered frames lie between the last frame tracked before the cover and the
+// first after it (tracking.interpolate_predictions_within_s); without that they keep the
+// prediction.
+void predictionsAcrossAMergedLossAreInterpolated(bool interpolate) {
+  constexpr size_t kCoverLast = kTurnCoverFirst + 8;
+  SystemOptions options = test::syntheticSystemOptions();
+  if (!interpolate) options.tracking.interpolate_predictions_within_s = 0;
+  const sim::SyntheticScene scene(sim::SceneOptions{}, options.camera);
+  const Trajectory path = coverTurnAndComeBackPath(options.camera.fps);
+  const AtlasRun run = runAtlas(scene, path, options, coveredLens(kTurnCoverFirst, kCoverLast), noFrameWithheld);
+  const eval::AteResult ate = eval::computeAte(path, run.main_map);
+  const auto [covered_in_main, worst_m] = framesInMainMap(path, run, ate, kTurnCoverFirst, kCoverLast + 1);
+  const nlohmann::json& counts = run.statistics["counts"];
+  std::printf("0.3 s cover, interpolation %s: maps started %d, merges %d, %zu of %zu frames in the main map, covered "
+              "frames: %zu in the main map, predicted %d, interpolated %d, worst %.1f mm, ATE %.2f mm\n",
+              interpolate ? "on" : "off", run.statistics["atlas"]["maps_started"].get<int>(),
+              run.statistics["atlas"]["merges"].get<int>(), run.main_map.size(), path.size(), covered_in_main,
+              counts["predicted_poses"].get<int>(), counts["interpolated_poses"].get<int>(), 1000 * worst_m,
+              1000 * ate.translation_m.rmse);
+  ASSERT_GE(run.statistics["atlas"]["maps_started"].get<int>(), 2) << "a second map after the cover";
+  ASSERT_EQ(liveMaps(run.statistics), 1u) << "merged by the end";
+  // The second map starts within a few frames (the first views of that side have too few features
+  // spread over the image) and the frames before its start are tracked backwards from it.
+  size_t first_tracked = kCoverLast + 1;
+  while (first_tracked < path.size() && !run.tracked[first_tracked]) ++first_tracked;
+  EXPECT_LE(first_tracked, kCoverLast + 10);
+  EXPECT_FALSE(run.predicted[kCoverLast + 1]);
+  EXPECT_EQ(run.main_map.size(), path.size());
+  for (size_t i = kTurnCoverFirst; i <= kCoverLast; ++i) EXPECT_TRUE(run.predicted[i]) << "frame " << i;
+  EXPECT_EQ(covered_in_main, kCoverLast - kTurnCoverFirst + 1);
+  if (interpolate) {
+    EXPECT_GE(counts["interpolated_poses"].get<int>(), static_cast<int>(kCoverLast - kTurnCoverFirst + 1));
+    EXPECT_LT(worst_m, 0.03);
+  } else {
+    EXPECT_GT(worst_m, 0.05) << "the prediction goes on along the lap";
+  }
+}
+
+TEST(SystemAtlas, PredictionsAcrossAMergedLossAreInterpolated) { predictionsAcrossAMergedLossAreInterpolated(true); }
+TEST(SystemAtlas, PredictionsAcrossAMergedLossStayWithoutInterpolation) {
+  predictionsAcrossAMergedLossAreInterpolated(false);
+}
+
 // The same path, but place recognition cannot merge maps while keyframes arrive
 // (atlas.merge_min_consistent_keyframes out of reach):
 // - kTracking: the second map, started after the cover, is merged because tracking finds the
@@ -499,7 +546,10 @@ TEST(SystemAtlas, FramesBeforeAMapLostAtOnceWaitForTheNextFrameTracked) {
 void coveredFramesAreSettledBetweenTheTrackedOnes(bool settle) {
   constexpr size_t kCoverFirst = 40, kCoverLast = 46, kFrames = 90;
   SystemOptions options = test::syntheticSystemOptions();
-  if (!settle) options.tracking.backfill_max_s = 0;
+  if (!settle) {
+    options.tracking.backfill_max_s = 0;
+    options.tracking.interpolate_predictions_within_s = 0;  // the same interpolation at the end
+  }
   const sim::SyntheticScene scene(sim::SceneOptions{}, options.camera);
   const Trajectory dense = sim::sweepPath(2 * kFrames, options.camera.fps);
   Trajectory path;
