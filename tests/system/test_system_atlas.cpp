@@ -167,11 +167,11 @@ TEST(SystemAtlas, CoveredCameraMergeWithMappingAndLoopThreads) { coveredCameraSt
 
 // The same path with a cover of 0.3 s: the camera turns round at once as the cover starts. The
 // covered frames get the prediction from the lap before (tracking.predict_through_loss_s), which
-// goes on along the lap while the camera stands; the first frame after the cover faces the side no
-// keyframe saw and starts a second map, merged into the first when the camera comes back. In one
-// world at the end, the covered frames lie between the last frame tracked before the cover and the
-// first after it (tracking.interpolate_predictions_within_s); without that they keep the
-// prediction.
+// goes on along the lap while the camera stands. After the cover the camera faces the side no
+// keyframe saw: a second map starts there (its first frames tracked backwards from its start) and
+// is merged into the first when the camera comes back. In one world at the end, the covered frames
+// lie between the last frame tracked before the cover and the first after it
+// (tracking.interpolate_predictions_within_s); without that they keep the prediction.
 void predictionsAcrossAMergedLossAreInterpolated(bool interpolate) {
   constexpr size_t kCoverLast = kTurnCoverFirst + 8;
   SystemOptions options = test::syntheticSystemOptions();
