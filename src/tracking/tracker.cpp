@@ -568,10 +568,11 @@ std::vector<FrameRecord> Tracker::interpolateAcrossMerges() {
       if (a && b > *a + 1 && records_[b].timestamp - records_[*a].timestamp <= predictions_span_s &&
           records_[*a].reference->map_id == records_[b].reference->map_id) {
         // Interpolated frames (settle() did, between the same two) stay as they are.
-        const bool guesses_only = std::all_of(records_.begin() + *a + 1, records_.begin() + b, [](const FrameRecord& r) {
+        const auto guess = [](const FrameRecord& r) {
           return r.source == PoseSource::kNone || r.source == PoseSource::kPredicted ||
                  r.source == PoseSource::kPredictedBackwards;
-        });
+        };
+        const bool guesses_only = std::all_of(records_.begin() + *a + 1, records_.begin() + b, guess);
         if (guesses_only) interpolateBetween(records_[*a], records_[b], *a + 1, b);
       }
       a = b;
