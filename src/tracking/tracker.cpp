@@ -539,71 +539,56 @@ void Tracker::finishBackwardPrediction(TrackOutcome& outcome) { predictBackwards
 std::vector<FrameRecord> Tracker::interpolateAcrossMerges() {
   std::vector<FrameRecord> interpolated;
   std::shared_lock lock(map_.mutex());
-  // Records first..last-1 (and their map) from the motion between records a and b.
-  const auto interpolateBetween = [&](const FrameRecord& a, const FrameRecord& b, size_t first, size_t last) {
+  // Record k (and its map) from the motion between records a and b around it.
+  const auto interpolateAt = [&](const FrameRecord& a, const FrameRecord& b, size_t k) {
     const double span = b.timestamp - a.timestamp;
     if (!(span > 1e-6)) return;
     const SE3 T_a_w = a.T_c_r * map::keyframeTcw(a.reference);
     const SE3 T_b_w = b.T_c_r * map::keyframeTcw(b.reference);
     const SE3 motion = T_b_w * T_a_w.inverse();
-    const SE3 T_w_ref = map::keyframeTcw(a.reference).inverse();
-    for (size_t k = first; k < last; ++k) {
-      FrameRecord& r = records_[k];
-      const double s = (r.timestamp - a.timestamp) / span;
-      r.T_c_r = SE3::exp(motion.log() * s) * T_a_w * T_w_ref;
-      r.reference = a.reference;
-      r.map_id = a.map_id;
-      r.source = PoseSource::kInterpolated;
-      interpolated.push_back(r);
-      ++interpolated_poses_;
-    }
+    FrameRecord& r = records_[k];
+    const double s = (r.timestamp - a.timestamp) / span;
+    r.T_c_r = SE3::exp(motion.log() * s) * T_a_w * map::keyframeTcw(a.reference).inverse();
+    r.reference = a.reference;
+    r.map_id = a.map_id;
+    r.source = PoseSource::kInterpolated;
+    interpolated.push_back(r);
+    ++interpolated_poses_;
   };
 
-  // 1. Predictions between two measured poses close enough in time, in one map now.
+  // 1. Predictions between two measured poses close enough in time, in one map now. Interpolated
+  // frames between them (settle() did, between the same two) stay as they are.
   const double predictions_span_s = options_.tracking.interpolate_predictions_within_s;
-  if (predictions_span_s > 0) {
-    std::optional<size_t> a;  // the last measured record
-    for (size_t b = 0; b < records_.size(); ++b) {
-      if (!records_[b].measured()) continue;
-      if (a && b > *a + 1 && records_[b].timestamp - records_[*a].timestamp <= predictions_span_s &&
-          records_[*a].reference->map_id == records_[b].reference->map_id) {
-        // Interpolated frames (settle() did, between the same two) stay as they are.
-        const auto guess = [](const FrameRecord& r) {
-          return r.source == PoseSource::kNone || r.source == PoseSource::kPredicted ||
-                 r.source == PoseSource::kPredictedBackwards;
-        };
-        const bool guesses_only = std::all_of(records_.begin() + *a + 1, records_.begin() + b, guess);
-        if (guesses_only) interpolateBetween(records_[*a], records_[b], *a + 1, b);
-      }
-      a = b;
-    }
+  const auto guess = [](const FrameRecord& r) {
+    return r.source == PoseSource::kNone || r.source == PoseSource::kPredicted ||
+           r.source == PoseSource::kPredictedBackwards;
+  };
+  std::optional<size_t> a;  // the last measured record
+  for (size_t b = 0; predictions_span_s > 0 && b < records_.size(); ++b) {
+    if (!records_[b].measured()) continue;
+    if (a && b > *a + 1 && records_[b].timestamp - records_[*a].timestamp <= predictions_span_s &&
+        records_[*a].reference->map_id == records_[b].reference->map_id &&
+        std::all_of(records_.begin() + *a + 1, records_.begin() + b, guess))
+      for (size_t k = *a + 1; k < b; ++k) interpolateAt(records_[*a], records_[b], k);
+    a = b;
   }
 
   // 2. Frames without a pose between two with one, in one map now.
   const double max_span_s = 2 * options_.tracking.backfill_max_s;
   if (max_span_s <= 0) return interpolated;
   for (size_t i = 1; i < records_.size(); ++i) {
-    // A run of frames without a pose starts at i; `a` is the frame with one before it.
+    // A run of frames without a pose starts at i; `before` is the frame with one before it.
     if (records_[i].reference != nullptr || records_[i - 1].reference == nullptr) continue;
-    const FrameRecord& a = records_[i - 1];
-    // The next frame with a pose in a's map; frames tracked in another map on the way (a map started
-    // in the loss and lost again, never merged) keep their poses there.
+    const FrameRecord& before = records_[i - 1];
+    // The next frame with a pose in that map; frames tracked in another map on the way (a map
+    // started in the loss and lost again, never merged) keep their poses there.
     size_t j = i + 1;
-    while (j < records_.size() && records_[j].timestamp - a.timestamp <= max_span_s &&
-           (records_[j].reference == nullptr || records_[j].reference->map_id != a.reference->map_id))
+    while (j < records_.size() && records_[j].timestamp - before.timestamp <= max_span_s &&
+           (records_[j].reference == nullptr || records_[j].reference->map_id != before.reference->map_id))
       ++j;
-    if (j == records_.size() || records_[j].timestamp - a.timestamp > max_span_s) continue;
-    // Only the frames without a pose: those tracked in another map keep theirs.
-    for (size_t k = i; k < j;) {
-      if (records_[k].reference != nullptr) {
-        ++k;
-        continue;
-      }
-      size_t end = k;
-      while (end < j && records_[end].reference == nullptr) ++end;
-      interpolateBetween(a, records_[j], k, end);
-      k = end;
-    }
+    if (j == records_.size() || records_[j].timestamp - before.timestamp > max_span_s) continue;
+    for (size_t k = i; k < j; ++k)
+      if (records_[k].reference == nullptr) interpolateAt(before, records_[j], k);
   }
   return interpolated;
 }
