@@ -3,7 +3,9 @@
 // camera; it must come back within a few frames, in the old map or in a new one that place
 // recognition merges into the old one, so that (almost) every frame ends up with a pose in one
 // world.
+#include <algorithm>
 #include <cstdio>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -429,7 +431,9 @@ TEST(SystemAtlas, WithoutTheFreeSpaceCheckAMapStartsOnTheBoard) { boardInFrontMi
 void firstFramesWithoutAMapStartAreBackfilled(bool backfill) {
   constexpr size_t kWithoutStart = 9, kFrames = 60;
   SystemOptions options = test::syntheticSystemOptions();
-  if (!backfill) options.tracking.backfill_max_s = options.tracking.predict_back_s = 0;
+  // Without backfilling (nor the predictions and their extension that would stand in for it).
+  if (!backfill)
+    options.tracking.backfill_max_s = options.tracking.predict_back_s = options.tracking.extend_predictions_s = 0;
   const sim::SyntheticScene scene(sim::SceneOptions{}, options.camera);
   const Trajectory path = sim::sweepPath(kFrames, options.camera.fps);
   const AtlasRun run = runAtlas(
@@ -475,7 +479,8 @@ TEST(SystemAtlas, FirstFramesWithoutAMapStartHaveNoPoseWithoutBackfill) {
 void coveredFirstFramesArePredictedBackwards(bool predict_back) {
   constexpr size_t kCovered = 7, kFrames = 40;
   SystemOptions options = test::syntheticSystemOptions();
-  if (!predict_back) options.tracking.predict_back_s = 0;
+  // Without it (and without its continuation at the end of the run, tracking.extend_predictions_s).
+  if (!predict_back) options.tracking.predict_back_s = options.tracking.extend_predictions_s = 0;
   const sim::SyntheticScene scene(sim::SceneOptions{}, options.camera);
   const Trajectory path = sim::sweepPath(kFrames, options.camera.fps);
   const AtlasRun run = runAtlas(scene, path, options, coveredLens(0, kCovered - 1), noFrameWithheld);
@@ -501,6 +506,83 @@ void coveredFirstFramesArePredictedBackwards(bool predict_back) {
 TEST(SystemAtlas, CoveredFirstFramesArePredictedBackwards) { coveredFirstFramesArePredictedBackwards(true); }
 TEST(SystemAtlas, CoveredFirstFramesHaveNoPoseWithoutBackwardPrediction) {
   coveredFirstFramesArePredictedBackwards(false);
+}
+
+// As above, but covered for longer than the backward prediction reaches (tracking.predict_back_s):
+// the frames before it get the same motion, continued further back, at the end of the run
+// (tracking.extend_predictions_s); with that off they have no pose.
+void coveredFirstFramesBeyondTheBackwardPrediction(bool extend) {
+  constexpr size_t kCovered = 16, kFrames = 50;
+  SystemOptions options = test::syntheticSystemOptions();
+  if (!extend) options.tracking.extend_predictions_s = 0;
+  const sim::SyntheticScene scene(sim::SceneOptions{}, options.camera);
+  const Trajectory path = sim::sweepPath(kFrames, options.camera.fps);
+  const AtlasRun run = runAtlas(scene, path, options, coveredLens(0, kCovered - 1), noFrameWithheld);
+  const eval::AteResult ate = eval::computeAte(path, run.main_map);
+  const auto [covered_with_pose, worst_m] = framesInMainMap(path, run, ate, 0, kCovered);
+  const nlohmann::json& counts = run.statistics["counts"];
+  const int backwards = counts["backward_predicted_poses"].get<int>();
+  const int extended = counts["extended_predictions"].get<int>();
+  std::printf("%zu covered first frames, extension %s: %zu with a pose, predicted backwards %d, extended %d, worst "
+              "%.1f mm, ATE %.2f mm\n", kCovered, extend ? "on" : "off", covered_with_pose, backwards, extended,
+              1000 * worst_m, 1000 * ate.translation_m.rmse);
+  for (size_t i = kCovered; i < kFrames; ++i) EXPECT_TRUE(run.tracked[i]) << "frame " << i;
+  EXPECT_GT(backwards, 0);
+  EXPECT_LT(backwards, static_cast<int>(kCovered));
+  if (!extend) {
+    EXPECT_EQ(extended, 0);
+    EXPECT_EQ(covered_with_pose, static_cast<size_t>(backwards));
+    return;
+  }
+  EXPECT_EQ(covered_with_pose, kCovered);
+  EXPECT_EQ(extended, static_cast<int>(kCovered) - backwards);
+  EXPECT_EQ(run.main_map.size(), kFrames);
+  EXPECT_LT(worst_m, 0.04) << "the sweep's motion, extrapolated 0.5 s back";
+}
+TEST(SystemAtlas, CoveredFirstFramesBeyondTheBackwardPredictionGetItContinued) {
+  coveredFirstFramesBeyondTheBackwardPrediction(true);
+}
+TEST(SystemAtlas, CoveredFirstFramesBeyondTheBackwardPredictionHaveNoPoseWithoutExtension) {
+  coveredFirstFramesBeyondTheBackwardPrediction(false);
+}
+
+// A cover of one second between two maps that stay apart (no merge: nothing to interpolate
+// between): the first frames of the cover get the prediction from before it, the last ones the
+// motion after it extrapolated backwards, and the frames between the two, beyond both horizons, get
+// the nearer of the two continued, in that side's map (tracking.extend_predictions_s).
+TEST(SystemAtlas, FramesBetweenTwoMapsBeyondBothPredictionsGetTheNearerOne) {
+  SystemOptions options = test::syntheticSystemOptions();
+  options.atlas.merge_min_consistent_keyframes = 100;
+  options.atlas.other_map_search_s = 0;
+  options.atlas.final_merge_search = false;
+  const sim::SyntheticScene scene(sim::SceneOptions{}, options.camera);
+  const Trajectory path = coverTurnAndComeBackPath(options.camera.fps);
+  const AtlasRun run = runAtlas(scene, path, options, coveredLens(kTurnCoverFirst, kTurnCoverLast), noFrameWithheld);
+  const nlohmann::json& counts = run.statistics["counts"];
+  const int extended = counts["extended_predictions"].get<int>();
+  std::printf("1 s cover between two maps: %zu of %zu frames with a pose, predicted %d, predicted backwards %d, "
+              "extended %d\n", run.all.size(), path.size(), counts["predicted_poses"].get<int>(),
+              counts["backward_predicted_poses"].get<int>(), extended);
+  ASSERT_EQ(liveMaps(run.statistics), 2u) << "the maps stay apart";
+  EXPECT_EQ(run.all.size(), path.size());
+  // The cover lasts longer than the two predictions' horizons together.
+  EXPECT_GT(extended, 0);
+  // Along the covered frames: the first map's, then the second's, each continued from its side.
+  std::vector<int> covered_maps;
+  for (const AtlasPose& p : run.all)
+    for (size_t i = kTurnCoverFirst; i <= kTurnCoverLast; ++i)
+      if (path[i].timestamp == p.timestamp) covered_maps.push_back(p.map);
+  ASSERT_EQ(covered_maps.size(), kTurnCoverLast - kTurnCoverFirst + 1);
+  const auto switch_at = std::adjacent_find(covered_maps.begin(), covered_maps.end(), std::not_equal_to<>());
+  ASSERT_NE(switch_at, covered_maps.end()) << "one side's map only";
+  EXPECT_EQ(covered_maps.front(), run.all.front().map);
+  EXPECT_TRUE(std::all_of(switch_at + 1, covered_maps.end(), [&](int m) { return m == covered_maps.back(); }));
+  // Nearer: the switch lies within a frame of the middle of the frames that were extended.
+  const size_t predicted_forward = counts["predicted_poses"].get<int>();
+  const size_t first_extended = predicted_forward, switch_index = switch_at - covered_maps.begin() + 1;
+  const size_t middle = first_extended + extended / 2;
+  EXPECT_LE(std::max(switch_index, middle) - std::min(switch_index, middle), 1u)
+      << "switch at covered frame " << switch_index << ", extended from " << first_extended;
 }
 
 // As above, but the lens is uncovered for one frame only before it is covered again (people
