@@ -472,6 +472,21 @@ TEST(SystemAtlas, FirstFramesWithoutAMapStartHaveNoPoseWithoutBackfill) {
   firstFramesWithoutAMapStartAreBackfilled(false);
 }
 
+// A sweep of `frames` frames whose first `covered` ones are black with no depth.
+struct CoveredStartRun {
+  AtlasRun run;
+  eval::AteResult ate;
+  FramesInMainMap covered;  // of the covered frames
+};
+CoveredStartRun runWithCoveredStart(const SystemOptions& options, size_t covered, size_t frames) {
+  const sim::SyntheticScene scene(sim::SceneOptions{}, options.camera);
+  const Trajectory path = sim::sweepPath(static_cast<int>(frames), options.camera.fps);
+  CoveredStartRun result{runAtlas(scene, path, options, coveredLens(0, covered - 1), noFrameWithheld), {}, {}};
+  result.ate = eval::computeAte(path, result.run.main_map);
+  result.covered = framesInMainMap(path, result.run, result.ate, 0, covered);
+  return result;
+}
+
 // The first frames are black with no depth (a lens cap, a person right in front of the camera)
 // while the camera already sweeps: no feature search can reach them, from the map that starts
 // after them either. They get the motion of the first frames tracked after them, extrapolated
@@ -481,11 +496,8 @@ void coveredFirstFramesArePredictedBackwards(bool predict_back) {
   SystemOptions options = test::syntheticSystemOptions();
   // Without it (and without its continuation at the end of the run, tracking.extend_predictions_s).
   if (!predict_back) options.tracking.predict_back_s = options.tracking.extend_predictions_s = 0;
-  const sim::SyntheticScene scene(sim::SceneOptions{}, options.camera);
-  const Trajectory path = sim::sweepPath(kFrames, options.camera.fps);
-  const AtlasRun run = runAtlas(scene, path, options, coveredLens(0, kCovered - 1), noFrameWithheld);
-  const eval::AteResult ate = eval::computeAte(path, run.main_map);
-  const auto [covered_with_pose, worst_m] = framesInMainMap(path, run, ate, 0, kCovered);
+  const auto [run, ate, covered] = runWithCoveredStart(options, kCovered, kFrames);
+  const auto [covered_with_pose, worst_m] = covered;
   const nlohmann::json& counts = run.statistics["counts"];
   std::printf("covered first frames, backward prediction %s: %zu of %zu with a pose, predicted backwards %d, "
               "worst %.1f mm, ATE %.2f mm\n", predict_back ? "on" : "off", covered_with_pose, kCovered,
@@ -515,11 +527,8 @@ void coveredFirstFramesBeyondTheBackwardPrediction(bool extend) {
   constexpr size_t kCovered = 16, kFrames = 50;
   SystemOptions options = test::syntheticSystemOptions();
   if (!extend) options.tracking.extend_predictions_s = 0;
-  const sim::SyntheticScene scene(sim::SceneOptions{}, options.camera);
-  const Trajectory path = sim::sweepPath(kFrames, options.camera.fps);
-  const AtlasRun run = runAtlas(scene, path, options, coveredLens(0, kCovered - 1), noFrameWithheld);
-  const eval::AteResult ate = eval::computeAte(path, run.main_map);
-  const auto [covered_with_pose, worst_m] = framesInMainMap(path, run, ate, 0, kCovered);
+  const auto [run, ate, covered] = runWithCoveredStart(options, kCovered, kFrames);
+  const auto [covered_with_pose, worst_m] = covered;
   const nlohmann::json& counts = run.statistics["counts"];
   const int backwards = counts["backward_predicted_poses"].get<int>();
   const int extended = counts["extended_predictions"].get<int>();
