@@ -478,20 +478,18 @@ void SlamSystem::finish(const FinishControl& control) {
   if (!interpolated.empty())
     spdlog::debug("finish: {} frames interpolated between poses that merges brought into one map",
                   interpolated.size());
-  // Then the frames still without a pose get the nearer motion, continued
-  // (tracking::Tracker::extendPredictions).
-  const std::vector<tracking::FrameRecord> extended = tracker_.extendPredictions();
-  for (const tracking::FrameRecord& r : extended)
+  // Then the frames still without a pose get the nearer frame's (tracking::Tracker::holdNearestPoses).
+  const std::vector<tracking::FrameRecord> held = tracker_.holdNearestPoses();
+  for (const tracking::FrameRecord& r : held)
     if (r.frame_id < frames_.size()) {
       FrameStats& f = frames_[r.frame_id];
-      f.extended = true;
+      f.held = true;
       f.predicted = r.source == tracking::PoseSource::kPredicted;
       f.predicted_backwards = r.source == tracking::PoseSource::kPredictedBackwards;
       f.map = r.map_id;
     }
-  if (!extended.empty())
-    spdlog::info("finish: {} frames without a pose given the nearer motion, continued (tracking.extend_predictions_s)",
-                 extended.size());
+  if (!held.empty())
+    spdlog::info("finish: {} frames without a pose given the nearer frame's pose (tracking.hold_pose_s)", held.size());
   // Keyframes held for a map that a merge at the end of the run brought into the dense map's world:
   // no later keyframe hands them on (pushDenseKeyframe does that while the run goes on).
   if (dense_ && dense_world_map_ >= 0 && !dense_held_.empty()) {
@@ -669,7 +667,7 @@ nlohmann::json SlamSystem::statistics() const {
                          {"weak", f.weak}, {"odometry", f.odometry}, {"predicted", f.predicted},
                          {"backfilled", f.backfilled},
                          {"interpolated", f.interpolated}, {"predicted_backwards", f.predicted_backwards},
-                         {"extended", f.extended}});
+                         {"held", f.held}});
     if (f.reloc_candidates >= 0)
       per_frame.back()["relocalisation"] = {{"candidates", f.reloc_candidates}, {"best_matches", f.reloc_matches},
                                             {"best_pnp_inliers", f.reloc_pnp_inliers},
@@ -697,7 +695,7 @@ nlohmann::json SlamSystem::statistics() const {
                    {"backfilled_poses", tracker_.backfilledPoses()},
                    {"interpolated_poses", tracker_.interpolatedPoses()},
                    {"backward_predicted_poses", tracker_.backwardPredictedPoses()},
-                   {"extended_predictions", tracker_.extendedPredictions()},
+                   {"held_poses", tracker_.heldPoses()},
                    {"keyframes", map_.keyframeCount()},
                    {"keyframes_created", map_.allKeyframes().size()},
                    {"map_points", map_.pointCount()}};

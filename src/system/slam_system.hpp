@@ -99,9 +99,9 @@ struct FrameStats {
   bool backfilled = false;    // not tracked then: a later frame's tracking gave it a pose (tracking.backfill_max_s)
   bool interpolated = false;  // not tracked then: its pose lies between the frames tracked before and after
   bool predicted_backwards = false;  // not tracked then: the motion after it, extrapolated (tracking.predict_back_s)
-  // Given a pose only at the end of the run, beyond both predictions (tracking.extend_predictions_s);
-  // predicted or predicted_backwards says which way.
-  bool extended = false;
+  // Given the nearer frame's pose at the end of the run, beyond both predictions
+  // (tracking.hold_pose_s); predicted or predicted_backwards says which side's.
+  bool held = false;
   // Relocalisation attempt on this frame (lost): candidates tried, best descriptor matches, PnP
   // inliers, pose inliers (-1: not attempted).
   int reloc_candidates = -1, reloc_matches = -1, reloc_pnp_inliers = -1, reloc_inliers = -1;

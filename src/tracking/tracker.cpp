@@ -593,61 +593,33 @@ std::vector<FrameRecord> Tracker::interpolateAcrossMerges() {
   return interpolated;
 }
 
-std::vector<FrameRecord> Tracker::extendPredictions() {
-  std::vector<FrameRecord> extended;
-  const double max_s = options_.tracking.extend_predictions_s;
-  if (max_s <= 0) return extended;
-  std::shared_lock lock(map_.mutex());
-  const auto T_c_w = [](const FrameRecord& r) { return r.T_c_r * map::keyframeTcw(r.reference); };
-  // The motion at record `end` per second, from the records with a pose next to it on one side
-  // (`step` -1: before it; +1: after it) in its map now, over up to kBridgeVelocityFrames steps;
-  // T_c_w at time t on that side is then exp(motion_per_s * |t - t_end|) * T_c_w(end). One step's
-  // motion is too noisy to carry a third of a second.
-  struct Side {
-    size_t end;
-    Vec6 motion_per_s;
-  };
-  const auto sideAt = [&](size_t end, int step) -> std::optional<Side> {
-    const int map_id = records_[end].reference->map_id;
-    size_t other = end;
-    for (size_t n = 0; n < kBridgeVelocityFrames; ++n) {
-      const auto next = static_cast<std::ptrdiff_t>(other) + step;
-      if (next < 0 || next >= static_cast<std::ptrdiff_t>(records_.size())) break;
-      const FrameRecord& r = records_[static_cast<size_t>(next)];
-      if (r.reference == nullptr || r.reference->map_id != map_id) break;
-      other = static_cast<size_t>(next);
-    }
-    const double span_s = std::abs(records_[end].timestamp - records_[other].timestamp);
-    if (std::max(end, other) - std::min(end, other) < 2 || !(span_s > 1e-6)) return std::nullopt;
-    return Side{end, (T_c_w(records_[end]) * T_c_w(records_[other]).inverse()).log() / span_s};
-  };
+std::vector<FrameRecord> Tracker::holdNearestPoses() {
+  std::vector<FrameRecord> held;
+  const double max_s = options_.tracking.hold_pose_s;
+  if (max_s <= 0) return held;
   for (size_t i = 0; i < records_.size(); ++i) {
     if (records_[i].reference != nullptr) continue;
     // A run of frames without a pose: i .. j-1, between records i-1 and j (where those exist).
     size_t j = i;
     while (j < records_.size() && records_[j].reference == nullptr) ++j;
-    const std::optional<Side> before = i > 0 ? sideAt(i - 1, -1) : std::nullopt;
-    const std::optional<Side> after = j < records_.size() ? sideAt(j, +1) : std::nullopt;
     for (size_t k = i; k < j; ++k) {
       const Timestamp t = records_[k].timestamp;
-      const double from_before_s = before ? t - records_[before->end].timestamp : max_s + 1;
-      const double from_after_s = after ? records_[after->end].timestamp - t : max_s + 1;
-      const bool forward = from_before_s <= from_after_s;
-      const double dt_s = forward ? from_before_s : from_after_s;
-      if (!(dt_s <= max_s)) continue;
-      const Side& side = forward ? *before : *after;
-      const FrameRecord& end = records_[side.end];
+      const double after_before_s = i > 0 ? t - records_[i - 1].timestamp : max_s + 1;
+      const double before_after_s = j < records_.size() ? records_[j].timestamp - t : max_s + 1;
+      const bool from_before = after_before_s <= before_after_s;
+      if (!(std::min(after_before_s, before_after_s) <= max_s)) continue;
+      const FrameRecord& nearest = records_[from_before ? i - 1 : j];
       FrameRecord& r = records_[k];
-      r.T_c_r = SE3::exp(side.motion_per_s * dt_s) * T_c_w(end) * map::keyframeTcw(end.reference).inverse();
-      r.reference = end.reference;
-      r.map_id = end.map_id;
-      r.source = forward ? PoseSource::kPredicted : PoseSource::kPredictedBackwards;
-      extended.push_back(r);
-      ++extended_predictions_;
+      r.reference = nearest.reference;  // the same pose relative to the same keyframe: it follows that keyframe
+      r.T_c_r = nearest.T_c_r;
+      r.map_id = nearest.map_id;
+      r.source = from_before ? PoseSource::kPredicted : PoseSource::kPredictedBackwards;
+      held.push_back(r);
+      ++held_poses_;
     }
     i = j;
   }
-  return extended;
+  return held;
 }
 
 void Tracker::pushHistory(const map::Frame& frame, const map::Keyframe* reference, const SE3& T_c_r) {

@@ -126,11 +126,11 @@ class Tracker {
   //     theirs.
   // Returns their new records.
   std::vector<FrameRecord> interpolateAcrossMerges();
-  // The end of a run, after interpolateAcrossMerges(): frames still without a pose get the motion
-  // of the nearer frames with one (tracking.extend_predictions_s). Returns their new records
-  // (source kPredicted forward, kPredictedBackwards backwards).
-  std::vector<FrameRecord> extendPredictions();
-  int extendedPredictions() const { return extended_predictions_; }  // tracking.extend_predictions_s
+  // The end of a run, after interpolateAcrossMerges(): frames still without a pose get the pose of
+  // the nearer frame with one (tracking.hold_pose_s). Returns their new records (source kPredicted
+  // when that frame is before them, kPredictedBackwards when after).
+  std::vector<FrameRecord> holdNearestPoses();
+  int heldPoses() const { return held_poses_; }  // frames given the nearer pose (tracking.hold_pose_s)
   int mapsStarted() const { return maps_started_; }           // maps of the atlas this tracker started
   int initialisationsRefused() const { return initialisations_refused_; }  // frames too weak to start a map
   int activeMap() const { return active_map_; }               // -1 before the first map
@@ -309,7 +309,7 @@ class Tracker {
   int odometry_poses_ = 0;
   int interpolated_poses_ = 0;
   int backward_predicted_poses_ = 0;
-  int extended_predictions_ = 0;
+  int held_poses_ = 0;
   int initialisations_refused_ = 0;
   int active_map_ = -1;         // the atlas map tracking works in (its live id after merges)
   Timestamp lost_since_ = 0;    // timestamp of the first lost frame of the current loss

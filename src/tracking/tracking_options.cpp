@@ -28,7 +28,7 @@ void TrackingOptions::validate() const {
   requireInRange(s, "backfill_max_s", backfill_max_s, 0.0, 60.0);
   requireInRange(s, "predict_back_s", predict_back_s, 0.0, 60.0);
   requireInRange(s, "interpolate_predictions_within_s", interpolate_predictions_within_s, 0.0, 60.0);
-  requireInRange(s, "extend_predictions_s", extend_predictions_s, 0.0, 60.0);
+  requireInRange(s, "hold_pose_s", hold_pose_s, 0.0, 60.0);
   requireThat(odometry_min_inliers == 0 || (odometry_min_inliers >= 6 && odometry_min_inliers <= 10000), s,
               "odometry_min_inliers",
               "is " + std::to_string(odometry_min_inliers) + "; expected 0 (off) or 6-10000 (PnP needs 6 points)");

@@ -97,15 +97,17 @@ struct TrackingOptions {
   // (emulated on the runs' trajectories). 0 = off.
   double interpolate_predictions_within_s = 0.6;
   // At the end of a run, after that: frames still without a pose at most this long after the last
-  // frame with one before them, or before the first frame with one after them, get the nearer one's
-  // motion continued (its motion over up to five frames next to it, in its map; forward as the
-  // bridge, or backwards; report: "predicted" or "predicted_backwards", and "extended"). These lie
-  // beyond both predictions' horizons: a crowd covered the view for longer than those, and no map
-  // could start in it. A robot needs a pose for them too; it is dead reckoning, flagged as such
-  // (three such gaps in 23 runs of fr1_desk composites: 9-22 cm off, where the predictions next
-  // to them ended 10-15 cm off; in the main map they raise its ATE: 0.0192 -> 0.0211 m with two
-  // such frames, 0.0144 -> 0.0230 m with six). 0 = off: measured poses and the two predictions only.
-  double extend_predictions_s = 0.3;
+  // frame with one before them, or before the first frame with one after them, get the pose of the
+  // nearer of those two, in its map (report: "held", and "predicted" or "predicted_backwards").
+  // These lie beyond both predictions' horizons: a crowd covered the view for longer than those,
+  // and no map could start in it. A robot needs a pose for them too, but no motion is known there:
+  // the predictions stop where their velocity stops being trusted. Over every frame of the fr1_desk,
+  // fr1_xyz and Bonn crowd ground truth, continuing a 0.3 s bridge's velocity 0.07-0.3 s further was
+  // about as far off as holding its end, or further (RMS from 0.1 cm closer to 1.5 cm further);
+  // on three runs of fr1_desk composites (14 such frames checked) the held poses were 9.7-15.4 cm
+  // off, the velocity continued 9.0-22.3 cm. They still raise the ATE of the map they join
+  // (0.0144 -> 0.0188 m with 3 such frames among 292). 0 = off: measured poses and the two predictions only.
+  double hold_pose_s = 0.3;
   // When the map does not give a pose (motion model, reference keyframe, relocalisation), the
   // frame's static features are matched by descriptor against the last tracked frame's
   // depth-backed ones (its map points, else its depth) within a window around the same pixel,
@@ -148,7 +150,7 @@ struct TrackingOptions {
     v("vo_check_min_map_inliers", vo_check_min_map_inliers); v("backfill_max_s", backfill_max_s);
     v("predict_back_s", predict_back_s);
     v("interpolate_predictions_within_s", interpolate_predictions_within_s);
-    v("extend_predictions_s", extend_predictions_s);
+    v("hold_pose_s", hold_pose_s);
     v("odometry_min_inliers", odometry_min_inliers);
     v("odometry_keyframe_after_s", odometry_keyframe_after_s);
     v("odometry_keyframe_max_masked_share", odometry_keyframe_max_masked_share);

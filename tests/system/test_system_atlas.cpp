@@ -5,7 +5,6 @@
 // world.
 #include <algorithm>
 #include <cstdio>
-#include <functional>
 #include <string>
 #include <vector>
 
@@ -433,7 +432,7 @@ void firstFramesWithoutAMapStartAreBackfilled(bool backfill) {
   SystemOptions options = test::syntheticSystemOptions();
   // Without backfilling (nor the predictions and their extension that would stand in for it).
   if (!backfill)
-    options.tracking.backfill_max_s = options.tracking.predict_back_s = options.tracking.extend_predictions_s = 0;
+    options.tracking.backfill_max_s = options.tracking.predict_back_s = options.tracking.hold_pose_s = 0;
   const sim::SyntheticScene scene(sim::SceneOptions{}, options.camera);
   const Trajectory path = sim::sweepPath(kFrames, options.camera.fps);
   const AtlasRun run = runAtlas(
@@ -494,8 +493,8 @@ CoveredStartRun runWithCoveredStart(const SystemOptions& options, size_t covered
 void coveredFirstFramesArePredictedBackwards(bool predict_back) {
   constexpr size_t kCovered = 7, kFrames = 40;
   SystemOptions options = test::syntheticSystemOptions();
-  // Without it (and without its continuation at the end of the run, tracking.extend_predictions_s).
-  if (!predict_back) options.tracking.predict_back_s = options.tracking.extend_predictions_s = 0;
+  // Without it (and without its continuation at the end of the run, tracking.hold_pose_s).
+  if (!predict_back) options.tracking.predict_back_s = options.tracking.hold_pose_s = 0;
   const auto [run, ate, covered] = runWithCoveredStart(options, kCovered, kFrames);
   const auto [covered_with_pose, worst_m] = covered;
   const nlohmann::json& counts = run.statistics["counts"];
@@ -520,46 +519,59 @@ TEST(SystemAtlas, CoveredFirstFramesHaveNoPoseWithoutBackwardPrediction) {
   coveredFirstFramesArePredictedBackwards(false);
 }
 
+// Frame i of `path` in `all` (null when it has no pose).
+const AtlasPose* poseOf(const AtlasTrajectory& all, const Trajectory& path, size_t i) {
+  for (const AtlasPose& p : all)
+    if (p.timestamp == path[i].timestamp) return &p;
+  return nullptr;
+}
+bool samePose(const AtlasPose* a, const AtlasPose* b) {
+  return a != nullptr && b != nullptr && (a->T_w_c.inverse() * b->T_w_c).log().norm() < 1e-9;
+}
+
 // As above, but covered for longer than the backward prediction reaches (tracking.predict_back_s):
-// the frames before it get the same motion, continued further back, at the end of the run
-// (tracking.extend_predictions_s); with that off they have no pose.
-void coveredFirstFramesBeyondTheBackwardPrediction(bool extend) {
+// at the end of the run the frames before it get the pose of the first frame that has one
+// (tracking.hold_pose_s); with that off they have no pose.
+void coveredFirstFramesBeyondTheBackwardPrediction(bool hold) {
   constexpr size_t kCovered = 16, kFrames = 50;
   SystemOptions options = test::syntheticSystemOptions();
-  if (!extend) options.tracking.extend_predictions_s = 0;
+  if (!hold) options.tracking.hold_pose_s = 0;
   const auto [run, ate, covered] = runWithCoveredStart(options, kCovered, kFrames);
   const auto [covered_with_pose, worst_m] = covered;
   const nlohmann::json& counts = run.statistics["counts"];
   const int backwards = counts["backward_predicted_poses"].get<int>();
-  const int extended = counts["extended_predictions"].get<int>();
-  std::printf("%zu covered first frames, extension %s: %zu with a pose, predicted backwards %d, extended %d, worst "
-              "%.1f mm, ATE %.2f mm\n", kCovered, extend ? "on" : "off", covered_with_pose, backwards, extended,
+  const int held = counts["held_poses"].get<int>();
+  std::printf("%zu covered first frames, holding %s: %zu with a pose, predicted backwards %d, held %d, worst "
+              "%.1f mm, ATE %.2f mm\n", kCovered, hold ? "on" : "off", covered_with_pose, backwards, held,
               1000 * worst_m, 1000 * ate.translation_m.rmse);
   for (size_t i = kCovered; i < kFrames; ++i) EXPECT_TRUE(run.tracked[i]) << "frame " << i;
   EXPECT_GT(backwards, 0);
   EXPECT_LT(backwards, static_cast<int>(kCovered));
-  if (!extend) {
-    EXPECT_EQ(extended, 0);
+  if (!hold) {
+    EXPECT_EQ(held, 0);
     EXPECT_EQ(covered_with_pose, static_cast<size_t>(backwards));
     return;
   }
   EXPECT_EQ(covered_with_pose, kCovered);
-  EXPECT_EQ(extended, static_cast<int>(kCovered) - backwards);
+  EXPECT_EQ(held, static_cast<int>(kCovered) - backwards);
   EXPECT_EQ(run.main_map.size(), kFrames);
-  EXPECT_LT(worst_m, 0.04) << "the sweep's motion, extrapolated 0.5 s back";
+  const Trajectory path = sim::sweepPath(kFrames, options.camera.fps);
+  const size_t first_predicted = kCovered - backwards;
+  for (size_t i = 0; i < first_predicted; ++i)
+    EXPECT_TRUE(samePose(poseOf(run.all, path, i), poseOf(run.all, path, first_predicted))) << "frame " << i;
 }
-TEST(SystemAtlas, CoveredFirstFramesBeyondTheBackwardPredictionGetItContinued) {
+TEST(SystemAtlas, CoveredFirstFramesBeyondTheBackwardPredictionGetTheNearestPose) {
   coveredFirstFramesBeyondTheBackwardPrediction(true);
 }
-TEST(SystemAtlas, CoveredFirstFramesBeyondTheBackwardPredictionHaveNoPoseWithoutExtension) {
+TEST(SystemAtlas, CoveredFirstFramesBeyondTheBackwardPredictionHaveNoPoseWithoutHolding) {
   coveredFirstFramesBeyondTheBackwardPrediction(false);
 }
 
 // A cover of one second between two maps that stay apart (no merge: nothing to interpolate
 // between): the first frames of the cover get the prediction from before it, the last ones the
-// motion after it extrapolated backwards, and the frames between the two, beyond both horizons, get
-// the nearer of the two continued, in that side's map (tracking.extend_predictions_s).
-TEST(SystemAtlas, FramesBetweenTwoMapsBeyondBothPredictionsGetTheNearerOne) {
+// motion after it extrapolated backwards, and each frame between the two, beyond both horizons,
+// gets the pose of the nearer of the two, in its map (tracking.hold_pose_s).
+TEST(SystemAtlas, FramesBetweenTwoMapsBeyondBothPredictionsGetTheNearerPose) {
   SystemOptions options = test::syntheticSystemOptions();
   options.atlas.merge_min_consistent_keyframes = 100;
   options.atlas.other_map_search_s = 0;
@@ -568,30 +580,29 @@ TEST(SystemAtlas, FramesBetweenTwoMapsBeyondBothPredictionsGetTheNearerOne) {
   const Trajectory path = coverTurnAndComeBackPath(options.camera.fps);
   const AtlasRun run = runAtlas(scene, path, options, coveredLens(kTurnCoverFirst, kTurnCoverLast), noFrameWithheld);
   const nlohmann::json& counts = run.statistics["counts"];
-  const int extended = counts["extended_predictions"].get<int>();
+  const int forward = counts["predicted_poses"].get<int>();
+  const int backwards = counts["backward_predicted_poses"].get<int>();
+  const int held = counts["held_poses"].get<int>();
   std::printf("1 s cover between two maps: %zu of %zu frames with a pose, predicted %d, predicted backwards %d, "
-              "extended %d\n", run.all.size(), path.size(), counts["predicted_poses"].get<int>(),
-              counts["backward_predicted_poses"].get<int>(), extended);
+              "held %d\n", run.all.size(), path.size(), forward, backwards, held);
   ASSERT_EQ(liveMaps(run.statistics), 2u) << "the maps stay apart";
   EXPECT_EQ(run.all.size(), path.size());
-  // The cover lasts longer than the two predictions' horizons together.
-  EXPECT_GT(extended, 0);
-  // Along the covered frames: the first map's, then the second's, each continued from its side.
-  std::vector<int> covered_maps;
-  for (const AtlasPose& p : run.all)
-    for (size_t i = kTurnCoverFirst; i <= kTurnCoverLast; ++i)
-      if (path[i].timestamp == p.timestamp) covered_maps.push_back(p.map);
-  ASSERT_EQ(covered_maps.size(), kTurnCoverLast - kTurnCoverFirst + 1);
-  const auto switch_at = std::adjacent_find(covered_maps.begin(), covered_maps.end(), std::not_equal_to<>());
-  ASSERT_NE(switch_at, covered_maps.end()) << "one side's map only";
-  EXPECT_EQ(covered_maps.front(), run.all.front().map);
-  EXPECT_TRUE(std::all_of(switch_at + 1, covered_maps.end(), [&](int m) { return m == covered_maps.back(); }));
-  // Nearer: the switch lies within a frame of the middle of the frames that were extended.
-  const size_t predicted_forward = counts["predicted_poses"].get<int>();
-  const size_t first_extended = predicted_forward, switch_index = switch_at - covered_maps.begin() + 1;
-  const size_t middle = first_extended + extended / 2;
-  EXPECT_LE(std::max(switch_index, middle) - std::min(switch_index, middle), 1u)
-      << "switch at covered frame " << switch_index << ", extended from " << first_extended;
+  // The cover lasts longer than the two predictions' horizons together: the frames between them,
+  // first..last, get the last forward-predicted pose up to the middle and the first
+  // backward-predicted one after it.
+  ASSERT_GT(held, 1);
+  const size_t first = kTurnCoverFirst + forward, last = kTurnCoverLast - backwards;
+  ASSERT_EQ(last - first + 1, static_cast<size_t>(held));
+  const AtlasPose* before = poseOf(run.all, path, first - 1);
+  const AtlasPose* after = poseOf(run.all, path, last + 1);
+  ASSERT_TRUE(before != nullptr && after != nullptr);
+  for (size_t i = first; i <= last; ++i) {
+    const bool nearer_before = path[i].timestamp - path[first - 1].timestamp <= path[last + 1].timestamp - path[i].timestamp;
+    EXPECT_TRUE(samePose(poseOf(run.all, path, i), nearer_before ? before : after)) << "frame " << i;
+  }
+  EXPECT_NE(before->map, after->map);
+  EXPECT_EQ(poseOf(run.all, path, first)->map, before->map);
+  EXPECT_EQ(poseOf(run.all, path, last)->map, after->map);
 }
 
 // As above, but the lens is uncovered for one frame only before it is covered again (people
