@@ -604,10 +604,10 @@ std::vector<FrameRecord> Tracker::holdNearestPoses() {
     while (j < records_.size() && records_[j].reference == nullptr) ++j;
     for (size_t k = i; k < j; ++k) {
       const Timestamp t = records_[k].timestamp;
-      const double after_before_s = i > 0 ? t - records_[i - 1].timestamp : max_s + 1;
-      const double before_after_s = j < records_.size() ? records_[j].timestamp - t : max_s + 1;
-      const bool from_before = after_before_s <= before_after_s;
-      if (!(std::min(after_before_s, before_after_s) <= max_s)) continue;
+      const double since_before_s = i > 0 ? t - records_[i - 1].timestamp : max_s + 1;
+      const double until_after_s = j < records_.size() ? records_[j].timestamp - t : max_s + 1;
+      const bool from_before = since_before_s <= until_after_s;
+      if (!(std::min(since_before_s, until_after_s) <= max_s)) continue;
       const FrameRecord& nearest = records_[from_before ? i - 1 : j];
       FrameRecord& r = records_[k];
       r.reference = nearest.reference;  // the same pose relative to the same keyframe: it follows that keyframe

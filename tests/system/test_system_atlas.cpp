@@ -597,7 +597,8 @@ TEST(SystemAtlas, FramesBetweenTwoMapsBeyondBothPredictionsGetTheNearerPose) {
   const AtlasPose* after = poseOf(run.all, path, last + 1);
   ASSERT_TRUE(before != nullptr && after != nullptr);
   for (size_t i = first; i <= last; ++i) {
-    const bool nearer_before = path[i].timestamp - path[first - 1].timestamp <= path[last + 1].timestamp - path[i].timestamp;
+    const bool nearer_before =
+        path[i].timestamp - path[first - 1].timestamp <= path[last + 1].timestamp - path[i].timestamp;
     EXPECT_TRUE(samePose(poseOf(run.all, path, i), nearer_before ? before : after)) << "frame " << i;
   }
   EXPECT_NE(before->map, after->map);
