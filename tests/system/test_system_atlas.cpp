@@ -438,7 +438,7 @@ TEST(SystemAtlas, WithoutTheFreeSpaceCheckAMapStartsOnTheBoard) { boardInFrontMi
 void firstFramesWithoutAMapStartAreBackfilled(bool backfill) {
   constexpr size_t kWithoutStart = 9, kFrames = 60;
   SystemOptions options = test::syntheticSystemOptions();
-  // Without backfilling (nor the predictions and their extension that would stand in for it).
+  // Without backfilling (nor the backward prediction and the held poses that would stand in for it).
   if (!backfill)
     options.tracking.backfill_max_s = options.tracking.predict_back_s = options.tracking.hold_pose_s = 0;
   const sim::SyntheticScene scene(sim::SceneOptions{}, options.camera);
@@ -501,7 +501,7 @@ CoveredStartRun runWithCoveredStart(const SystemOptions& options, size_t covered
 void coveredFirstFramesArePredictedBackwards(bool predict_back) {
   constexpr size_t kCovered = 7, kFrames = 40;
   SystemOptions options = test::syntheticSystemOptions();
-  // Without it (and without its continuation at the end of the run, tracking.hold_pose_s).
+  // Without it (nor the held poses at the end of the run that would stand in for it, tracking.hold_pose_s).
   if (!predict_back) options.tracking.predict_back_s = options.tracking.hold_pose_s = 0;
   const auto [run, ate, covered] = runWithCoveredStart(options, kCovered, kFrames);
   const auto [covered_with_pose, worst_m] = covered;
@@ -594,7 +594,7 @@ TEST(SystemAtlas, FramesBetweenTwoMapsBeyondBothPredictionsGetTheNearerPose) {
   std::printf("1 s cover between two maps: %zu of %zu frames with a pose, predicted %d, predicted backwards %d, "
               "held %d\n", run.all.size(), path.size(), forward, backwards, held);
   ASSERT_EQ(liveMaps(run.statistics), 2u) << "the maps stay apart";
-  EXPECT_EQ(run.all.size(), path.size());
+  ASSERT_EQ(run.all.size(), path.size());
   // The cover lasts longer than the two predictions' horizons together: the frames between them,
   // first..last, get the last forward-predicted pose up to the middle and the first
   // backward-predicted one after it.
