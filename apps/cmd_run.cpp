@@ -47,6 +47,7 @@
 #include "io/frame_prefetcher.hpp"
 #include "io/timing_summary.hpp"
 #include "plausibility/sequence_check.hpp"
+#include "report/maps_apart.hpp"
 #include "report/run_plots.hpp"
 
 namespace desslam::app {
@@ -569,6 +570,10 @@ int runSequence(const RunArgs& args) {
   if (error) report["error"] = error.message;
   if (nothing_tracked)
     report["nothing_tracked"] = nothingTrackedMessage(report["statistics"]["per_frame"], options, frame_count);
+  // Frames tracked in maps that no merge joined to the main map are in no evaluated trajectory:
+  // "with a pose" below counts them, so the user is told where they are.
+  const std::optional<std::string> maps_apart = report::mapsApartWarning(report["statistics"]);
+  if (maps_apart) report["warnings"].push_back(*maps_apart);
   const int code = error                          ? error.code
                    : interruption.interrupted()   ? exit_code::interrupted(interruption.signal)
                    : nothing_tracked              ? exit_code::kNothingTracked
@@ -602,7 +607,12 @@ int runSequence(const RunArgs& args) {
               << ", keyframes " << stats["counts"]["keyframes"] << ", map points " << stats["counts"]["map_points"]
               << "; tracking median " << std::fixed << std::setprecision(1)
               << stats["timings_ms"]["tracking"]["median"].get<double>() << std::defaultfloat << " ms/frame\n"
-              << "wrote " << (out_dir / "CameraTrajectory.txt").string() << ", KeyFrameTrajectory.txt, report.json\n";
+              << "wrote " << (out_dir / "CameraTrajectory.txt").string()
+              << ", CameraTrajectory_all.txt, KeyFrameTrajectory.txt, report.json\n";
+  }
+  if (maps_apart && !report_error) {
+    std::cout.flush();  // after the summary, also when both streams go to one file
+    std::fprintf(stderr, "warning: %s\n", maps_apart->c_str());
   }
   if (error) std::fprintf(stderr, "error: %s\n", error.message.c_str());
   if (report_error) std::fprintf(stderr, "error: %s\n", report_error.message.c_str());

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "plot/svg.hpp"
+#include "report/maps_apart.hpp"
 
 namespace desslam::report {
 namespace {
@@ -155,6 +156,7 @@ std::string keyFigures(const json& r) {
   t.row({"atlas: maps started / merges / main map (its frames)",
          show(at(atlas, "/maps_started")) + " / " + show(at(atlas, "/merges")) + " / " + show(at(atlas, "/main_map")) +
              " (" + show(at(atlas, "/frames_in_main_map")) + ")"});
+  if (const auto apart = mapsApartWarning(at(r, "/statistics")); apart) t.row({"frames outside the main map", *apart});
   t.row({"loops closed", show(at(r, "/statistics/loop_closing/loops_closed"))});
   t.row({"keyframes / map points", show(at(c, "/keyframes")) + " / " + show(at(c, "/map_points"))});
   const json& d = at(r, "/statistics/dynamic");

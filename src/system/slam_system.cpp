@@ -598,14 +598,25 @@ nlohmann::json SlamSystem::atlasJson() const {
     maps.push_back(entry);
   }
   const int main_map = mainMapLocked();
-  size_t in_main = 0;
+  std::map<int, size_t> frames_in_world;  // by the map each frame ended in, after every merge
   for (const tracking::FrameRecord& r : tracker_.records())
-    if (r.reference != nullptr && r.reference->map_id == main_map) ++in_main;
+    if (r.reference != nullptr) ++frames_in_world[r.reference->map_id];
+  size_t outside_main = 0;
+  nlohmann::json apart = nlohmann::json::array();
+  for (const auto& [id, n] : frames_in_world)
+    if (id != main_map) {
+      outside_main += n;
+      apart.push_back({{"id", id}, {"frames", n}});
+    }
   return {{"maps", maps},
           {"maps_started", tracker_.mapsStarted()},
           {"merges", merges},
           {"main_map", main_map},
-          {"frames_in_main_map", in_main},
+          {"frames_in_main_map", frames_in_world[main_map]},
+          // Frames with a pose only in maps never merged into the main map: not in
+          // CameraTrajectory.txt nor in its ATE (CameraTrajectory_all.txt has them, each in its map's frame).
+          {"frames_outside_main_map", outside_main},
+          {"maps_apart_from_main", apart},
           {"initialisations_refused", tracker_.initialisationsRefused()}};
 }
 

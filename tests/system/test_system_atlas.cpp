@@ -248,12 +248,22 @@ void secondMapIsMergedWithoutPlaceRecognitionOnline(MergedBy by, bool determinis
               run.main_map.size(), kCoverTurnFrames, run.statistics["counts"]["found_in_other_map"].get<int>(),
               atlas["merges"].get<int>(), by_tracking, at_end, atlas.dump().c_str());
   ASSERT_GE(atlas["maps_started"].get<int>(), 2) << "a second map after the cover";
+  const size_t with_pose = run.statistics["counts"]["frames_with_pose"].get<size_t>();
   if (by == MergedBy::kNothing) {
     EXPECT_EQ(atlas["merges"].get<int>(), 0);
     EXPECT_EQ(liveMaps(run.statistics), 2u);
     EXPECT_LT(run.main_map.size(), kCoverTurnFrames - 100);
+    // The other map's frames are counted apart from the main map's (the run warns of them).
+    EXPECT_EQ(atlas["frames_in_main_map"].get<size_t>(), run.main_map.size());
+    EXPECT_EQ(atlas["frames_outside_main_map"].get<size_t>(), with_pose - run.main_map.size());
+    EXPECT_GE(atlas["frames_outside_main_map"].get<size_t>(), 100u);
+    ASSERT_EQ(atlas["maps_apart_from_main"].size(), 1u);
+    EXPECT_NE(atlas["maps_apart_from_main"][0]["id"].get<int>(), atlas["main_map"].get<int>());
+    EXPECT_EQ(atlas["maps_apart_from_main"][0]["frames"], atlas["frames_outside_main_map"]);
     return;
   }
+  EXPECT_EQ(atlas["frames_outside_main_map"].get<size_t>(), 0u);
+  EXPECT_TRUE(atlas["maps_apart_from_main"].empty());
   if (by == MergedBy::kTracking) {
     EXPECT_GE(by_tracking, 1);
     EXPECT_EQ(at_end, 0);
