@@ -92,6 +92,9 @@ class Keyframe {
   // adjustment to place it: its pose is held like the origin's (local BA keeps it fixed, culling
   // keeps it), and the keyframes built on its points follow it.
   bool pose_held = false;
+  // Made at a weak pose (few local-map inliers near the motion prediction): local BA may not move
+  // it far from where tracking put it (LocalMapper holds it there instead).
+  bool made_at_weak_pose = false;
 
   bool usable(size_t i) const { return status[i] == FeatureStatus::kStatic; }
   SE3 T_w_c() const { return T_c_w.inverse(); }

@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <functional>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -24,6 +25,10 @@
 #include "matching/matcher.hpp"
 #include "place/keyframe_database.hpp"
 
+namespace desslam::optim {
+struct MapBaProblem;
+}
+
 namespace desslam::mapping {
 
 struct LocalMappingStats {
@@ -33,6 +38,7 @@ struct LocalMappingStats {
   size_t keyframes_culled = 0;
   size_t ba_runs = 0;
   size_t ba_aborted = 0;
+  size_t weak_keyframes_held = 0;  // keyframes made at weak poses held where local BA would move them far
   // Milliseconds per processed keyframe, per step.
   std::vector<double> insert_ms, cull_points_ms, triangulate_ms, fuse_ms, ba_ms, cull_keyframes_ms, total_ms;
 };
@@ -54,6 +60,12 @@ class LocalMapper {
   void triangulateNewPoints(map::Keyframe* kf);
   void fuseWithNeighbours(map::Keyframe* kf);
   void localBundleAdjustment(map::Keyframe* kf, const std::atomic<bool>* abort_ba);
+  // The local window of `kf` (it and its covisibles free, keyframes outside seeing their points
+  // fixed); none with fewer than two keyframes. Takes the map lock shared.
+  std::optional<optim::MapBaProblem> localBaProblem(map::Keyframe* kf) const;
+  // Holds (Keyframe::pose_held) the free keyframes made at weak poses that the solved `problem`
+  // moves more than kMaxWeakKeyframeMoveM; whether any. Map lock held exclusively.
+  bool holdWeakKeyframesMovedFar(const optim::MapBaProblem& problem);
   void cullRedundantKeyframes(map::Keyframe* kf);
 
   LocalMapperOptions options_;

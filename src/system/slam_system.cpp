@@ -730,6 +730,7 @@ nlohmann::json SlamSystem::statistics() const {
                         {"keyframes_culled", ms.keyframes_culled},
                         {"ba_runs", ms.ba_runs},
                         {"ba_aborted", ms.ba_aborted},
+                        {"weak_keyframes_held", ms.weak_keyframes_held},
                         {"timings_ms",
                          {{"insert", summarizeMilliseconds(ms.insert_ms)},
                           {"cull_points", summarizeMilliseconds(ms.cull_points_ms)},

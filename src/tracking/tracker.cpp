@@ -346,7 +346,7 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   std::optional<FoundInOtherMap> other;
   if (!outcome.weak && !outcome.odometry) other = findInOtherMap(frame);
   if (may_make_keyframe && (other || needKeyframe(frame, inliers, mapping_idle, mapping_backlog)))
-    outcome.new_keyframe = createKeyframe(frame, inliers, hold_pose);
+    outcome.new_keyframe = createKeyframe(frame, inliers, hold_pose, outcome.weak);
   if (other && outcome.new_keyframe != nullptr) {
     spdlog::debug("tracking: frame {} (keyframe {}, map {}) found in map {} with {} inliers: handed on for merging",
                   frame.id, outcome.new_keyframe->id, active_map_, other->other_reference->map_id, other->inliers);
@@ -1410,7 +1410,7 @@ std::optional<std::vector<map::FeatureStatus>> Tracker::mappableStatus(const map
   return std::nullopt;
 }
 
-map::Keyframe* Tracker::createKeyframe(map::Frame& frame, int inliers, bool hold_pose) {
+map::Keyframe* Tracker::createKeyframe(map::Frame& frame, int inliers, bool hold_pose, bool weak_pose) {
   map::Keyframe* kf = nullptr;
   // The mapping margin's dilation is computed before taking the lock.
   const std::optional<std::vector<map::FeatureStatus>> mappable = mappableStatus(frame, inliers);
@@ -1421,6 +1421,7 @@ map::Keyframe* Tracker::createKeyframe(map::Frame& frame, int inliers, bool hold
     kf = map_.createKeyframe(frame.id, frame.timestamp, frame.image_name, frame.features, status,
                              halfDepthFor(frame), frame.T_c_w, active_map_);
     kf->pose_held = hold_pose;
+    kf->made_at_weak_pose = weak_pose;
     for (size_t i = 0; i < frame.matches.size(); ++i) {
       map::MapPoint* p = frame.matches[i].point;
       if (status[i] != map::FeatureStatus::kStatic) continue;

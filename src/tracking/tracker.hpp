@@ -243,8 +243,8 @@ class Tracker {
   void updateLocalMap(const map::Frame& frame);
   bool needKeyframe(const map::Frame& frame, int inliers, bool mapping_idle, int mapping_backlog) const;
   // Null when the mask leaves the frame too little to map (see kMinKeyframeObservations). hold_pose:
-  // see Keyframe::pose_held.
-  map::Keyframe* createKeyframe(map::Frame& frame, int inliers, bool hold_pose = false);
+  // see Keyframe::pose_held; weak_pose: Keyframe::made_at_weak_pose.
+  map::Keyframe* createKeyframe(map::Frame& frame, int inliers, bool hold_pose = false, bool weak_pose = false);
   // The feature status a keyframe of `frame` maps with (nothing within the mapping margin of the
   // mask); nothing when that leaves too little (fewer points accepted when tracking starves).
   std::optional<std::vector<map::FeatureStatus>> mappableStatus(const map::Frame& frame, int inliers) const;
