@@ -505,10 +505,16 @@ void SlamSystem::finish(const FinishControl& control) {
   rethrowWorkerFailure();
 }
 
-int SlamSystem::mainMapLocked() const {
+std::map<int, size_t> SlamSystem::framesPerMapLocked() const {
   std::map<int, size_t> frames_per_map;
   for (const tracking::FrameRecord& r : tracker_.records())
     if (r.reference != nullptr) ++frames_per_map[r.reference->map_id];
+  return frames_per_map;
+}
+
+int SlamSystem::mainMapLocked() const { return mainMapOf(framesPerMapLocked()); }
+
+int SlamSystem::mainMapOf(const std::map<int, size_t>& frames_per_map) {
   int best = -1;
   size_t most = 0;
   for (const auto& [id, n] : frames_per_map)  // by id: the older map wins a tie
@@ -597,10 +603,8 @@ nlohmann::json SlamSystem::atlasJson() const {
     }
     maps.push_back(entry);
   }
-  const int main_map = mainMapLocked();
-  std::map<int, size_t> frames_in_world;  // by the map each frame ended in, after every merge
-  for (const tracking::FrameRecord& r : tracker_.records())
-    if (r.reference != nullptr) ++frames_in_world[r.reference->map_id];
+  std::map<int, size_t> frames_in_world = framesPerMapLocked();
+  const int main_map = mainMapOf(frames_in_world);
   size_t outside_main = 0;
   nlohmann::json apart = nlohmann::json::array();
   for (const auto& [id, n] : frames_in_world)

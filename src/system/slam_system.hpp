@@ -13,6 +13,7 @@
 #include <atomic>
 #include <deque>
 #include <functional>
+#include <map>
 #include <filesystem>
 #include <memory>
 #include <mutex>
@@ -174,8 +175,12 @@ class SlamSystem {
   void applyKeyframeMask(map::Keyframe* kf);
   // Flags the frames the outcome predicted backwards (tracking.predict_back_s) in frames_.
   void markPredictedBackwards(const tracking::TrackOutcome& outcome);
+  // Frames with a pose per map they ended in (after every merge). Map lock held shared.
+  std::map<int, size_t> framesPerMapLocked() const;
   // The live map holding the most tracked frames (-1: none). Map lock held shared.
   int mainMapLocked() const;
+  // The same from framesPerMapLocked()'s counts (the older map wins a tie).
+  static int mainMapOf(const std::map<int, size_t>& frames_per_map);
   // Throws WorkerError for the first failed worker thread, once (later calls return).
   void rethrowWorkerFailure();
   // The atlas for report.json: maps, merges. Map lock taken here.
