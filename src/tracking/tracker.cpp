@@ -63,6 +63,23 @@ void keepUnverifiedMaskedFeaturesOut(map::Frame& frame) {
     if (status == map::FeatureStatus::kPendingStage1) status = map::FeatureStatus::kDynamicMask;
 }
 
+// Odometry inliers (a map point or a visual-odometry point) whose feature lies outside the person
+// mask grown by the mapping margin: static points away from every detected person that agree with
+// the frame's pose. A walker's limbs that the network misses lie next to its mask, within the margin.
+int odometryInliersClearOfMask(const map::Frame& frame) {
+  std::vector<uint8_t> near_person(frame.matches.size(), 0);
+  if (!frame.dynamic_mask.empty())
+    near_person = dynamic::featuresInMask(*frame.features, frame.mapping_margin_px > 0
+                                                               ? dynamic::dilateMask(frame.dynamic_mask, frame.mapping_margin_px)
+                                                               : frame.dynamic_mask);
+  int clear = 0;
+  for (size_t i = 0; i < frame.matches.size(); ++i) {
+    const map::FeatureMatch& m = frame.matches[i];
+    clear += !near_person[i] && (m.point != nullptr || m.has_vo_point) && !m.outlier;
+  }
+  return clear;
+}
+
 // Share of the frame's features inside its person mask (0 without a mask).
 double maskedShare(const map::Frame& frame) {
   if (frame.dynamic_mask.empty() || frame.features->size() == 0) return 0.0;
@@ -328,7 +345,9 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   if (outcome.odometry) {
     const double after_s = options_.tracking.odometry_keyframe_after_s;
     const bool left_behind = after_s > 0 && frame.timestamp - *odometry_only_since_ >= after_s &&
-                             maskedShare(frame) <= options_.tracking.odometry_keyframe_max_masked_share;
+                             (maskedShare(frame) <= options_.tracking.odometry_keyframe_max_masked_share ||
+                              (options_.tracking.odometry_keyframe_min_clear_inliers > 0 &&
+                               odometryInliersClearOfMask(frame) >= options_.tracking.odometry_keyframe_min_clear_inliers));
     std::shared_lock lock(map_.mutex());
     may_make_keyframe =
         left_behind || map_.keyframeCount(active_map_) < static_cast<size_t>(options_.atlas.young_map_keyframes);

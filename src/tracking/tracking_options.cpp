@@ -34,6 +34,7 @@ void TrackingOptions::validate() const {
               "is " + std::to_string(odometry_min_inliers) + "; expected 0 (off) or 6-10000 (PnP needs 6 points)");
   requireInRange(s, "odometry_keyframe_after_s", odometry_keyframe_after_s, 0.0, 60.0);
   requireInRange(s, "odometry_keyframe_max_masked_share", odometry_keyframe_max_masked_share, 0.0, 1.0);
+  requireInRange(s, "odometry_keyframe_min_clear_inliers", odometry_keyframe_min_clear_inliers, 0, 10000);
 }
 
 void RelocalisationOptions::validate() const {

@@ -401,8 +401,16 @@ SystemOptions keyframeEveryFrameOptions() {
 // adjustment could move it anywhere; its pose is held (Keyframe::pose_held) while local BA refines
 // the keyframes built on it. A grown map gets no keyframe from an odometry pose until odometry alone
 // has tracked for tracking.odometry_keyframe_after_s (the map was left behind), and then only from
-// a view with at most odometry_keyframe_max_masked_share of its features in the person mask.
-enum class OdometryMap { kYoung, kGrown, kGrownMasked };
+// a view with at most odometry_keyframe_max_masked_share of its features in the person mask or with
+// at least odometry_keyframe_min_clear_inliers (100) odometry inliers outside the mask grown by the
+// mapping margin.
+enum class OdometryMap {
+  kYoung,
+  kGrown,
+  kGrownMaskedClearOfIt,   // a quarter of the view masked, hundreds of inliers beside it: a keyframe
+  kGrownMaskedShareOnly,   // the same with odometry_keyframe_min_clear_inliers 0: none
+};
+bool madeNoKeyframe(OdometryMap kind) { return kind == OdometryMap::kGrownMaskedShareOnly; }
 
 void odometryKeyframe(OdometryMap kind) {
   constexpr int kAfter = 4;
@@ -414,6 +422,9 @@ void odometryKeyframe(OdometryMap kind) {
   ASSERT_EQ(options.atlas.young_map_keyframes, 5);
   ASSERT_EQ(options.tracking.odometry_keyframe_after_s, 0.3);
   ASSERT_EQ(options.tracking.odometry_keyframe_max_masked_share, 0.1);
+  ASSERT_EQ(options.tracking.odometry_keyframe_min_clear_inliers, 100);
+  if (kind == OdometryMap::kGrownMaskedShareOnly) options.tracking.odometry_keyframe_min_clear_inliers = 0;
+  const bool masked = kind != OdometryMap::kYoung && kind != OdometryMap::kGrown;
   // Frames tracked by odometry alone up to the one that may make a keyframe: the first whose time
   // since the first is at least 0.3 s (the 10th or 11th at 30 frames/s, as the time stamps round),
   // in a grown map; the first, in a young map.
@@ -440,20 +451,26 @@ void odometryKeyframe(OdometryMap kind) {
   for (int i = before; i < before + odometry_frames; ++i) {
     map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
     // A person mask over a quarter of the view (dynamic.mode off: the features stay static).
-    if (kind == OdometryMap::kGrownMasked)
-      frame.dynamic_mask = columnsMask(options.camera.width, options.camera.height, 0, options.camera.width / 4);
+    if (masked) frame.dynamic_mask = columnsMask(options.camera.width, options.camera.height, 0, options.camera.width / 4);
     const TrackOutcome odometry = rig.track(frame);
     ASSERT_TRUE(odometry.odometry) << "frame " << i;
     EXPECT_LT(cameraDistance(frame.T_c_w, expectedTcw(i)), 0.01) << "frame " << i;
+    if (masked) {
+      int inliers_beside_mask = 0;
+      for (size_t f = 0; f < frame.matches.size(); ++f)
+        inliers_beside_mask += frame.features->uv[f].x() >= options.camera.width / 4 + 1 &&
+                               (frame.matches[f].point != nullptr || frame.matches[f].has_vo_point);
+      ASSERT_GE(inliers_beside_mask, 100) << "frame " << i;  // the gate's count (no mapping margin here)
+    }
     const bool last = i == before + odometry_frames - 1;
-    if (!last || kind == OdometryMap::kGrownMasked) {
+    if (!last || madeNoKeyframe(kind)) {
       EXPECT_EQ(odometry.new_keyframe, nullptr) << "frame " << i;
     } else {
       ASSERT_NE(odometry.new_keyframe, nullptr) << "frame " << i;
       held = odometry.new_keyframe;
     }
   }
-  if (kind == OdometryMap::kGrownMasked) return;
+  if (madeNoKeyframe(kind)) return;
   SE3 held_T_c_w;
   {
     std::shared_lock lock(rig.map().mutex());
@@ -486,9 +503,13 @@ TEST(TrackerOdometry, InAYoungMapAKeyframeAtAnOdometryPoseHoldsItsPoseAndTheMapG
 TEST(TrackerOdometry, AGrownMapLeftBehindForAThirdOfASecondGrowsFromAnOdometryPose) {
   odometryKeyframe(OdometryMap::kGrown);
 }
-TEST(TrackerOdometry, AGrownMapGetsNoKeyframeFromAnOdometryPoseWhereTheMaskCoversAQuarter) {
-  odometryKeyframe(OdometryMap::kGrownMasked);
+TEST(TrackerOdometry, AGrownMapGrowsFromAnOdometryPoseWhereStaticPointsBesideAMaskCarryIt) {
+  odometryKeyframe(OdometryMap::kGrownMaskedClearOfIt);
 }
+TEST(TrackerOdometry, AGrownMapGetsNoKeyframeFromAnOdometryPoseWhereTheMaskCoversAQuarterByShareAlone) {
+  odometryKeyframe(OdometryMap::kGrownMaskedShareOnly);
+}
+
 
 // ---------------------------------------------------------------------------------------------
 // Weak poses
