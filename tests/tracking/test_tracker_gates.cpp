@@ -510,7 +510,6 @@ TEST(TrackerOdometry, AGrownMapGetsNoKeyframeFromAnOdometryPoseWhereTheMaskCover
   odometryKeyframe(OdometryMap::kGrownMaskedShareOnly);
 }
 
-
 // ---------------------------------------------------------------------------------------------
 // Weak poses
 
