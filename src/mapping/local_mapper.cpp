@@ -344,7 +344,6 @@ bool LocalMapper::holdWeakKeyframesMovedFar(const optim::MapBaProblem& problem) 
   return held;
 }
 
-
 void LocalMapper::cullRedundantKeyframes(map::Keyframe* kf) {
   std::unique_lock lock(map_.mutex());
   for (map::Keyframe* candidate : map::bestCovisibles(kf, 0)) {

@@ -63,15 +63,20 @@ void keepUnverifiedMaskedFeaturesOut(map::Frame& frame) {
     if (status == map::FeatureStatus::kPendingStage1) status = map::FeatureStatus::kDynamicMask;
 }
 
+// 1 for each feature within the frame's mapping margin of its (dilated) person mask, where keyframes
+// map nothing; all 0 without a mask.
+std::vector<uint8_t> featuresNearPeople(const map::Frame& frame) {
+  if (frame.dynamic_mask.empty()) return std::vector<uint8_t>(frame.features->size(), 0);
+  return dynamic::featuresInMask(*frame.features, frame.mapping_margin_px > 0
+                                                      ? dynamic::dilateMask(frame.dynamic_mask, frame.mapping_margin_px)
+                                                      : frame.dynamic_mask);
+}
+
 // Odometry inliers (a map point or a visual-odometry point) whose feature lies outside the person
 // mask grown by the mapping margin: static points away from every detected person that agree with
 // the frame's pose. A walker's limbs that the network misses lie next to its mask, within the margin.
 int odometryInliersClearOfMask(const map::Frame& frame) {
-  std::vector<uint8_t> near_person(frame.matches.size(), 0);
-  if (!frame.dynamic_mask.empty())
-    near_person = dynamic::featuresInMask(*frame.features, frame.mapping_margin_px > 0
-                                                               ? dynamic::dilateMask(frame.dynamic_mask, frame.mapping_margin_px)
-                                                               : frame.dynamic_mask);
+  const std::vector<uint8_t> near_person = featuresNearPeople(frame);
   int clear = 0;
   for (size_t i = 0; i < frame.matches.size(); ++i) {
     const map::FeatureMatch& m = frame.matches[i];
@@ -1411,8 +1416,7 @@ int Tracker::applyStage2(map::Frame& frame) {
 std::optional<std::vector<map::FeatureStatus>> Tracker::mappableStatus(const map::Frame& frame, int inliers) const {
   std::vector<map::FeatureStatus> status = frame.status;
   if (frame.mapping_margin_px <= 0 || frame.dynamic_mask.empty()) return status;
-  const std::vector<uint8_t> excluded =
-      dynamic::featuresInMask(*frame.features, dynamic::dilateMask(frame.dynamic_mask, frame.mapping_margin_px));
+  const std::vector<uint8_t> excluded = featuresNearPeople(frame);
   int mappable = 0;
   for (size_t i = 0; i < status.size(); ++i) {
     if (excluded[i] && status[i] == map::FeatureStatus::kStatic) status[i] = map::FeatureStatus::kDynamicMask;
