@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <numbers>
 #include <string>
 
@@ -84,6 +85,28 @@ AteResult computeAte(const Trajectory& gt, const Trajectory& est, double max_dt)
                                matches[i].est_index});
   }
   result.translation_m = summarize(std::move(errors));
+  return result;
+}
+
+AtlasAteResult computeAtlasAte(const Trajectory& gt, const AtlasTrajectory& est, double max_dt) {
+  std::map<int, Trajectory> by_world;
+  for (const AtlasPose& p : est) by_world[p.world_map].push_back({p.timestamp, p.T_w_c});
+  AtlasAteResult result;
+  std::vector<double> errors;
+  for (const auto& [world_map, trajectory] : by_world) {
+    MapAte map_ate{world_map, trajectory.size(), std::nullopt};
+    if (associate(gt, trajectory, max_dt).size() >= 3) {
+      map_ate.ate = computeAte(gt, trajectory, max_dt);
+      for (const PoseError& e : map_ate.ate->per_pose) errors.push_back(e.error_m);
+    }
+    result.maps.push_back(std::move(map_ate));
+  }
+  if (errors.empty())
+    throw InputError("no map of the estimate has 3 poses within max_dt = " + std::to_string(max_dt) +
+                     " s of a ground-truth pose (" + poseCount(est.size()) + " in " + std::to_string(by_world.size()) +
+                     (by_world.size() == 1 ? " map" : " maps") +
+                     "): ATE aligns each map on its own and needs at least 3 in one (the same sequence?)");
+  result.all_maps_m = summarize(std::move(errors));
   return result;
 }
 

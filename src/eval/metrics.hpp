@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <optional>
 #include <vector>
 
 #include "core/se3.hpp"
@@ -37,6 +38,21 @@ struct AteResult {
 // Throws InputError when fewer than 3 poses associate: "the estimate has N poses, too few" (or
 // the ground truth) when a trajectory has fewer than 3, else "no timestamps within max_dt".
 AteResult computeAte(const Trajectory& gt, const Trajectory& est, double max_dt = 0.02);
+
+// The ATE of a run's maps that were never merged (CameraTrajectory_all.txt, grouped by
+// world_map): each map lives in its own world, so each is aligned on its own; one alignment across
+// them would mix unrelated frames (metres of "error" on a run whose every map is right).
+struct MapAte {
+  int world_map = 0;
+  std::size_t poses = 0;  // of the estimate, in this map
+  std::optional<AteResult> ate;  // none when fewer than 3 of its poses associate
+};
+struct AtlasAteResult {
+  std::vector<MapAte> maps;  // by world_map id
+  ErrorStats all_maps_m;     // every matched pose's error, each map aligned on its own
+};
+// Throws InputError (worded as computeAte's) when no map has 3 associated poses.
+AtlasAteResult computeAtlasAte(const Trajectory& gt, const AtlasTrajectory& est, double max_dt = 0.02);
 
 // One RPE pair: estimate poses at start_time and end_time (about delta_s later).
 struct RpePair {

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <system_error>
@@ -79,6 +80,74 @@ Trajectory parseTumTrajectory(std::istream& in, const std::string& name, std::ve
     if (ties > 10) warnings->push_back(name + ": " + std::to_string(ties - 10) + " more timestamp ties");
   }
   return trajectory;
+}
+
+namespace {
+constexpr int kAtlasColumns = 10;
+
+std::vector<std::string> splitFields(std::string line) {
+  for (char& c : line)
+    if (c == ',') c = ' ';
+  std::istringstream in(line);
+  std::vector<std::string> fields;
+  for (std::string f; in >> f;) fields.push_back(f);
+  return fields;
+}
+}  // namespace
+
+AtlasTrajectory readAtlasTrajectory(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in)
+    throw InputError("cannot open trajectory file " + path.string() +
+                     ": check the path (CameraTrajectory_all.txt format: timestamp tx ty tz qx qy qz qw map world_map)");
+  return parseAtlasTrajectory(in, path.string());
+}
+
+AtlasTrajectory parseAtlasTrajectory(std::istream& in, const std::string& name) {
+  // The pose columns go through the TUM parser (the same checks and messages); other lines stay as
+  // empty lines so that its messages name the file's own line numbers.
+  std::string poses;
+  std::vector<std::pair<int, int>> maps;
+  int last_line = 0;
+  forEachDataLine(in, [&](std::string& line, int line_number) {
+    poses.append(static_cast<size_t>(line_number - last_line - 1), '\n');
+    last_line = line_number;
+    const std::vector<std::string> fields = splitFields(line);
+    const std::string where = name + ":" + std::to_string(line_number);
+    if (fields.size() != kAtlasColumns)
+      throw InputError(where + ": expected " + std::to_string(kAtlasColumns) +
+                       " columns 'timestamp tx ty tz qx qy qz qw map world_map' (as CameraTrajectory_all.txt has), got " +
+                       std::to_string(fields.size()));
+    int ids[2];
+    for (int k = 0; k < 2; ++k) {
+      const std::string& token = fields[8 + k];
+      char* end = nullptr;
+      errno = 0;
+      const long v = std::strtol(token.c_str(), &end, 10);
+      if (end == token.c_str() || *end != '\0' || errno == ERANGE || v < 0 || v > 1000000)
+        throw InputError(where + ": " + (k == 0 ? "map" : "world_map") + " '" + token +
+                         "' is not a map id (a non-negative integer)");
+      ids[k] = static_cast<int>(v);
+    }
+    for (int k = 0; k < 8; ++k) poses += fields[k] + (k < 7 ? " " : "\n");
+    maps.emplace_back(ids[0], ids[1]);
+  });
+  std::istringstream pose_text(poses);
+  const Trajectory trajectory = parseTumTrajectory(pose_text, name);
+  AtlasTrajectory atlas;
+  atlas.reserve(trajectory.size());
+  for (size_t i = 0; i < trajectory.size(); ++i)
+    atlas.push_back({trajectory[i].timestamp, trajectory[i].T_w_c, maps[i].first, maps[i].second});
+  return atlas;
+}
+
+bool hasAtlasColumns(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  std::optional<size_t> columns;
+  forEachDataLine(in, [&](std::string& line, int) {
+    if (!columns) columns = splitFields(line).size();
+  });
+  return columns == static_cast<size_t>(kAtlasColumns);
 }
 
 namespace {

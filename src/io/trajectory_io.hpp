@@ -26,5 +26,12 @@ void writeTumTrajectory(const std::filesystem::path& path, const Trajectory& tra
 // the pose is in). TUM tools that read the first eight columns read it as one trajectory, which it
 // is only where world_map is the same.
 void writeAtlasTrajectory(const std::filesystem::path& path, const AtlasTrajectory& trajectory);
+// Reads that format back: every data line needs the ten columns (the pose as readTumTrajectory
+// checks it, then two integers); throws InputError naming the file and line otherwise.
+AtlasTrajectory readAtlasTrajectory(const std::filesystem::path& path);
+AtlasTrajectory parseAtlasTrajectory(std::istream& in, const std::string& name);
+// Whether the first data line of the file has the ten columns of CameraTrajectory_all.txt (false
+// for a TUM file, and for a file that cannot be read: readTumTrajectory then names the problem).
+bool hasAtlasColumns(const std::filesystem::path& path);
 
 }  // namespace desslam::io

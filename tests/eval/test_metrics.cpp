@@ -223,5 +223,68 @@ TEST(EvalRpe, TrajectoryShorterThanDeltaHasNoPairs) {
   EXPECT_THROW(computeRpe(gt, gt, 0.0, 0.02), InputError);
 }
 
+// Two maps never merged, each a rigidly moved piece of the ground truth in its own world: each
+// aligned on its own, both are exact; one alignment across them (what a TUM tool reading the first
+// eight columns of CameraTrajectory_all.txt does) reports metres.
+TEST(EvalAtlasAte, EachMapIsAlignedOnItsOwn) {
+  const Trajectory gt = curvedGroundTruth(4.0);
+  const SE3 T_a(so3Exp(Vec3(0.2, -0.5, 1.0)), Vec3(1.0, 2.0, -0.5));
+  const SE3 T_b(so3Exp(Vec3(-1.0, 0.3, 0.4)), Vec3(-3.0, 0.5, 2.0));
+  AtlasTrajectory est;
+  Trajectory one_world;
+  for (size_t i = 0; i < gt.size(); ++i) {
+    const bool first_half = i < gt.size() / 2;
+    const SE3 T_w_c = (first_half ? T_a : T_b) * gt[i].T_w_c;
+    est.push_back({gt[i].timestamp, T_w_c, first_half ? 0 : 3, first_half ? 0 : 2});
+    one_world.push_back({gt[i].timestamp, T_w_c});
+  }
+  est.push_back({kT0 + 100.0, SE3(), 5, 5});  // a map whose one pose has no ground truth
+  const AtlasAteResult r = computeAtlasAte(gt, est);
+  ASSERT_EQ(r.maps.size(), 3u);
+  EXPECT_EQ(r.maps[0].world_map, 0);
+  EXPECT_EQ(r.maps[1].world_map, 2);
+  EXPECT_EQ(r.maps[2].world_map, 5);
+  ASSERT_TRUE(r.maps[0].ate && r.maps[1].ate);
+  EXPECT_FALSE(r.maps[2].ate);
+  EXPECT_EQ(r.maps[0].poses + r.maps[1].poses, gt.size());
+  EXPECT_LT(r.maps[0].ate->translation_m.rmse, 1e-9);
+  EXPECT_LT(r.maps[1].ate->translation_m.rmse, 1e-9);
+  EXPECT_EQ(r.all_maps_m.count, gt.size());
+  EXPECT_LT(r.all_maps_m.rmse, 1e-9);
+  EXPECT_GT(computeAte(gt, one_world).translation_m.rmse, 0.1);
+}
+
+TEST(EvalAtlasAte, AllMapsErrorIsTheRmsOverEveryMatchedPose) {
+  const Trajectory gt = curvedGroundTruth(2.0);
+  AtlasTrajectory est;
+  // Map 0 exact; map 1 with every position 3 cm off along x (a constant offset the alignment
+  // removes) plus +-1 cm alternating along z (which it cannot).
+  for (size_t i = 0; i < gt.size(); ++i) {
+    const bool in_map_1 = i >= gt.size() / 2;
+    SE3 T_w_c = gt[i].T_w_c;
+    if (in_map_1) T_w_c = SE3(T_w_c.quaternion(), T_w_c.translation() + Vec3(0.03, 0, (i % 2 ? 0.01 : -0.01)));
+    est.push_back({gt[i].timestamp, T_w_c, in_map_1 ? 1 : 0, in_map_1 ? 1 : 0});
+  }
+  const AtlasAteResult r = computeAtlasAte(gt, est);
+  ASSERT_EQ(r.maps.size(), 2u);
+  ASSERT_TRUE(r.maps[1].ate);
+  EXPECT_NEAR(r.maps[1].ate->translation_m.rmse, 0.01, 2e-4);
+  const double n0 = static_cast<double>(r.maps[0].ate->matched), n1 = static_cast<double>(r.maps[1].ate->matched);
+  EXPECT_NEAR(r.all_maps_m.rmse, std::sqrt(n1 * std::pow(r.maps[1].ate->translation_m.rmse, 2) / (n0 + n1)), 1e-9);
+}
+
+TEST(EvalAtlasAte, NoMapWithThreeAssociatedPosesIsAnError) {
+  const Trajectory gt = curvedGroundTruth(1.0);
+  const AtlasTrajectory est = {{gt[0].timestamp, gt[0].T_w_c, 0, 0}, {gt[1].timestamp, gt[1].T_w_c, 0, 0},
+                               {gt[2].timestamp, gt[2].T_w_c, 1, 1}, {gt[3].timestamp, gt[3].T_w_c, 1, 1}};
+  try {
+    computeAtlasAte(gt, est);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no map of the estimate has 3 poses"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("4 poses in 2 maps"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace desslam::eval

@@ -177,6 +177,41 @@ TEST(TrajectoryFile, NonFiniteAndHugeValuesAreErrorsNamingTheLine) {
   EXPECT_NE(warnings[0].find("lines 1 and 2"), std::string::npos) << warnings[0];
 }
 
+TEST(AtlasTrajectoryFile, ReadsBackWhatTheWriterWrote) {
+  TempDir dir;
+  const AtlasTrajectory written = {{10.5, SE3(Quat(1, 0, 0, 0), Vec3(1, 2, 3)), 0, 0},
+                                   {10.6, SE3(Quat(0, 1, 0, 0), Vec3(-1, 0.5, 2)), 3, 1}};
+  writeAtlasTrajectory(dir.path() / "all.txt", written);
+  EXPECT_TRUE(hasAtlasColumns(dir.path() / "all.txt"));
+  const AtlasTrajectory back = readAtlasTrajectory(dir.path() / "all.txt");
+  ASSERT_EQ(back.size(), 2u);
+  for (size_t i = 0; i < back.size(); ++i) {
+    EXPECT_DOUBLE_EQ(back[i].timestamp, written[i].timestamp);
+    EXPECT_LT((back[i].T_w_c.translation() - written[i].T_w_c.translation()).norm(), 1e-9);
+    EXPECT_LT((back[i].T_w_c * written[i].T_w_c.inverse()).rotationAngle(), 1e-9);
+    EXPECT_EQ(back[i].map, written[i].map);
+    EXPECT_EQ(back[i].world_map, written[i].world_map);
+  }
+  writeTumTrajectory(dir.path() / "tum.txt", {{10.5, SE3()}});
+  EXPECT_FALSE(hasAtlasColumns(dir.path() / "tum.txt"));
+  EXPECT_FALSE(hasAtlasColumns(dir.path() / "missing.txt"));
+}
+
+TEST(AtlasTrajectoryFile, MalformedLinesAreErrorsNamingTheLine) {
+  for (const auto& [bad, expected] : std::vector<std::pair<std::string, std::string>>{
+           {"1 0 0 0 0 0 0 1", "expected 10 columns"},
+           {"1 0 0 0 0 0 0 1 0 0 7", "expected 10 columns"},
+           {"1 0 0 0 0 0 0 1 x 0", "map 'x' is not a map id"},
+           {"1 0 0 0 0 0 0 1 0 -2", "world_map '-2' is not a map id"},
+           {"1 0 nan 0 0 0 0 1 0 0", "not a finite number"}}) {
+    SCOPED_TRACE(bad);
+    std::istringstream in("# header\n\n0 0 0 0 0 0 0 1 0 0\n" + bad + "\n");
+    const std::string message = errorOf<InputError>([&] { parseAtlasTrajectory(in, "all.txt"); });
+    EXPECT_NE(message.find("all.txt:4"), std::string::npos) << message;
+    EXPECT_NE(message.find(expected), std::string::npos) << message;
+  }
+}
+
 TEST(TumSequence, LoadsImagesAndConvertsDepthToMetres) {
   TempDir dir;
   writeSequence(dir, {5.0}, {5.001}, 7500);

@@ -403,6 +403,44 @@ TEST_F(DesslamCli, EvalWithMissingFileIsNamed) {
   EXPECT_CONTAINS(r.err, "no_such_estimate.txt");
 }
 
+// CameraTrajectory_all.txt of a run whose two maps were never merged: the second map's world is
+// 5 m away. Each map aligned on its own is exact; one alignment across both would be metres off.
+TEST_F(DesslamCli, EvalOfAnAtlasTrajectoryAlignsEachMapOnItsOwn) {
+  writeSequence(8);
+  const fs::path gt = sequence() / "groundtruth.txt";
+  std::vector<std::string> poses;
+  std::istringstream lines(test::readText(gt));
+  for (std::string line; std::getline(lines, line);)
+    if (!line.empty() && line[0] != '#') poses.push_back(line);
+  ASSERT_GE(poses.size(), 6u);
+  std::string all = "# timestamp tx ty tz qx qy qz qw map world_map\n";
+  for (size_t i = 0; i < poses.size(); ++i) {
+    std::istringstream f(poses[i]);
+    double v[8];
+    for (double& x : v) f >> x;
+    const bool second = i >= poses.size() / 2;
+    char row[256];
+    std::snprintf(row, sizeof(row), "%.6f %.9f %.9f %.9f %.9f %.9f %.9f %.9f %d %d\n", v[0], v[1] + (second ? 5.0 : 0.0),
+                  v[2], v[3], v[4], v[5], v[6], v[7], second ? 2 : 0, second ? 2 : 0);
+    all += row;
+  }
+  dir_.write("CameraTrajectory_all.txt", all);
+  const std::string args = shellQuote(gt.string()) + " " + shellQuote((dir_ / "CameraTrajectory_all.txt").string());
+  const CommandResult table = desslam("eval " + args);
+  ASSERT_EQ(table.exit_code, 0) << table.err << table.out;
+  EXPECT_CONTAINS(table.out, "2 maps never merged: each is aligned to the ground truth on its own");
+  EXPECT_CONTAINS(table.out, "(every matched pose, each map aligned on its own)");
+  const CommandResult json = desslam("eval --json " + args);
+  ASSERT_EQ(json.exit_code, 0) << json.err;
+  const nlohmann::json report = nlohmann::json::parse(json.out);
+  ASSERT_EQ(report["maps"].size(), 2u);
+  EXPECT_EQ(report["maps"][1]["world_map"], 2);
+  EXPECT_LT(report["maps"][0]["ate"]["translation_m"]["rmse"].get<double>(), 1e-4);
+  EXPECT_LT(report["maps"][1]["ate"]["translation_m"]["rmse"].get<double>(), 1e-4);
+  EXPECT_LT(report["ate_all_maps"]["rmse"].get<double>(), 1e-4);
+  EXPECT_EQ(report["ate_all_maps"]["count"].get<size_t>(), poses.size());
+}
+
 TEST_F(DesslamCli, EvalOfTooFewPosesSaysHowManyTheEstimateHas) {
   writeSequence(4);
   const fs::path gt = sequence() / "groundtruth.txt";
