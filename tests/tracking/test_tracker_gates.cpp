@@ -583,6 +583,65 @@ TEST(TrackerWeakPose, AKeyframeAtAWeakPoseThatLocalBaWouldMoveFarIsHeldWhereTrac
 TEST(TrackerWeakPose, AKeyframeAtAWeakPoseThatLocalBaMovesLittleIsRefined) { weakPoseKeyframe(0.02, true); }
 TEST(TrackerWeakPose, AKeyframeAtAFullPoseIsRefinedHoweverFarLocalBaMovesIt) { weakPoseKeyframe(0.10, false); }
 
+// After a loss (one covered frame) the next frame keeps only 29 map points in view (below the
+// local map's bar of 30; 22-25 inliers, above the bar after stage 2, 20) and is seen 2.8 cm beside
+// the path: 3.5 cm from the motion prediction (which is itself 0.8 cm off the curved path). One
+// frame after a tracked one, 3 cm would be the bound for so few inliers; two frames after it the
+// prediction has run on, and the bridge gate's bound (3 cm + a t^2 / 2 = 4.1 cm) keeps the pose.
+// With tracking.max_acceleration_m_s2 = 0 (no bridge gate) the bound stays 3 cm; 8 cm beside the
+// path, or with 15 points, the frame is refused either way.
+void recoveringWeakPose(double max_acceleration, double displacement_m, size_t points_kept, bool expect_tracked) {
+  SystemOptions options = keyframeEveryFrameOptions();
+  options.tracking.close_depth = options.tracking.min_depth;  // no visual-odometry points
+  options.tracking.odometry_min_inliers = 0;                  // the local map alone gives the pose
+  options.tracking.max_acceleration_m_s2 = max_acceleration;
+  options.atlas.enabled = false;
+  const Trajectory path = sim::sweepPath(kSpeedFrames + 2, baseOptions().camera.fps);
+  const StampedPose& next = path[kSpeedFrames + 1];
+  const SE3 T_w_seen(next.T_w_c.rotation(), next.T_w_c.translation() + next.T_w_c.rotation() * Vec3(displacement_m, 0, 0));
+  const SE3 expected_T_c_w = (path.front().T_w_c.inverse() * T_w_seen).inverse();
+  Rig rig(options);
+  for (int i = 0; i < kSpeedFrames; ++i) {
+    map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
+    ASSERT_TRUE(rig.track(frame).tracked) << "frame " << i;
+  }
+  map::Frame covered = rig.blank(path[kSpeedFrames].timestamp, kSpeedFrames);
+  ASSERT_TRUE(rig.track(covered).predicted);
+  {
+    const PinholeCamera camera(options.camera);
+    std::unique_lock lock(rig.map().mutex());
+    size_t kept = 0;
+    for (map::MapPoint* p : rig.map().points()) {
+      const Vec3 p_c = expected_T_c_w * p->position;
+      const bool seen = p_c.z() > options.tracking.min_depth && camera.inImage(camera.project(p_c));
+      p->bad = !(seen && kept < points_kept);
+      if (!p->bad) ++kept;
+    }
+    ASSERT_EQ(kept, points_kept);
+  }
+  map::Frame back = rig.render(T_w_seen, next.timestamp, kSpeedFrames + 1);
+  const TrackOutcome outcome = rig.track(back);
+  EXPECT_EQ(outcome.tracked, expect_tracked);
+  EXPECT_EQ(outcome.predicted, !expect_tracked);
+  if (expect_tracked) {
+    EXPECT_TRUE(outcome.weak);
+    EXPECT_GE(outcome.inliers, 20);
+    EXPECT_LT(outcome.inliers, 30);
+    EXPECT_LT(cameraDistance(back.T_c_w, expected_T_c_w), 0.01);
+  }
+}
+
+TEST(TrackerWeakPose, AfterALossAPoseWithFewInliersIsKeptWithinTheBridgeGatesBound) {
+  recoveringWeakPose(5.0, 0.028, 29, /*expect_tracked=*/true);
+}
+TEST(TrackerWeakPose, AfterALossWithoutTheBridgeGateThePredictionsBoundStays3Cm) {
+  recoveringWeakPose(0.0, 0.028, 29, /*expect_tracked=*/false);
+}
+TEST(TrackerWeakPose, AfterALossAPoseBeyondTheBridgeGatesBoundOrWithTooFewInliersIsRefused) {
+  recoveringWeakPose(5.0, 0.08, 29, /*expect_tracked=*/false);
+  recoveringWeakPose(5.0, 0.028, 15, /*expect_tracked=*/false);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Mapping margin
 
