@@ -441,8 +441,9 @@ void LoopCloser::globalBa(uint64_t newest_keyframe) {
   {
     std::shared_lock lock(map_.mutex());
     const std::vector<map::Keyframe*> all = map_.keyframes();
-    // Each map of the atlas holds its own gauge: its origin keyframe stays fixed.
-    const std::vector<bool> fixed = map::originsFixed(all);
+    // Each map of the atlas holds its own gauge: its origin keyframe stays fixed, as do the
+    // keyframes held where tracking put them (map::globalBaFixed).
+    const std::vector<bool> fixed = map::globalBaFixed(all);
     problem = optim::buildMapBaProblem(all, fixed);
   }
   const std::vector<map::Keyframe*>& keyframes = problem.keyframes;

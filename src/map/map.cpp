@@ -362,4 +362,10 @@ std::vector<bool> originsFixed(const std::vector<Keyframe*>& keyframes) {
   return fixed;
 }
 
+std::vector<bool> globalBaFixed(const std::vector<Keyframe*>& keyframes) {
+  std::vector<bool> fixed = originsFixed(keyframes);
+  for (size_t i = 0; i < keyframes.size(); ++i) fixed[i] = fixed[i] || keyframes[i]->pose_held;
+  return fixed;
+}
+
 }  // namespace desslam::map

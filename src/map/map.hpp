@@ -100,6 +100,12 @@ int predictLevel(const MapPoint* point, double distance, const feature::ScalePyr
 // Per keyframe: whether it is its map's origin (the gauge of a bundle adjustment over whole maps);
 // the first keyframe when none is.
 std::vector<bool> originsFixed(const std::vector<Keyframe*>& keyframes);
+// What a bundle adjustment over whole maps holds fixed: the origins, and the keyframes held where
+// tracking put them (Keyframe::pose_held), which local BA never moves either. Freed in the final
+// global BA, one held because local BA would carry it 21 cm (an fr1_xyz composite, 5-frame-old
+// masks) ended 8.5 cm off (43 cm in a run changed elsewhere), the frames tracked from it with it;
+// held there too, they end 1.0-1.7 cm off.
+std::vector<bool> globalBaFixed(const std::vector<Keyframe*>& keyframes);
 // T_c_w of a keyframe; a culled one follows its parent (through T_c_parent).
 SE3 keyframeTcw(const Keyframe* kf);
 

@@ -68,8 +68,9 @@ GlobalBaResult globalBundleAdjustment(map::Map& map, const PinholeCamera& camera
   {
     std::shared_lock lock(map.mutex());
     const std::vector<map::Keyframe*> keyframes = map.keyframes();
-    // Each map of the atlas holds its own gauge: its origin keyframe stays fixed.
-    const std::vector<bool> fixed = map::originsFixed(keyframes);
+    // Each map of the atlas holds its own gauge: its origin keyframe stays fixed, as do the
+    // keyframes held where tracking put them (map::globalBaFixed).
+    const std::vector<bool> fixed = map::globalBaFixed(keyframes);
     problem = buildMapBaProblem(keyframes, fixed);
   }
   if (problem.keyframes.size() < 2) return result;

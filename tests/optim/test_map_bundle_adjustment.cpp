@@ -172,6 +172,31 @@ TEST(GlobalBundleAdjustment, PoseErrorDropsFirstKeyframeStaysAndOutlierIsErased)
   EXPECT_LT(result.outliers, result.observations / 100 + 2);
 }
 
+// A keyframe held where tracking put it (Keyframe::pose_held: local BA would have carried it far,
+// or it shares too few points with its map) is not moved by global BA either; the others are.
+TEST(GlobalBundleAdjustment, AHeldKeyframeStaysWhereItIs) {
+  const PinholeCamera camera = test::tumCamera();
+  auto s = makeMapScene(camera, 8, 600, 11);
+  SE3 held_before;
+  std::vector<SE3> before;
+  {
+    std::unique_lock lock(s->map.mutex());
+    s->keyframes[4]->pose_held = true;
+    held_before = s->keyframes[4]->T_c_w;
+    for (const map::Keyframe* kf : s->keyframes) before.push_back(kf->T_c_w);
+    const std::vector<bool> fixed = map::globalBaFixed(s->keyframes);
+    for (size_t k = 0; k < fixed.size(); ++k) EXPECT_EQ(fixed[k], k == 0 || k == 4) << "keyframe " << k;
+  }
+  ASSERT_GT(translationError(held_before, s->true_T_c_w[4]), 0.005) << "the start is perturbed";
+  globalBundleAdjustment(s->map, camera, BundleAdjustmentOptions{});
+  std::shared_lock lock(s->map.mutex());
+  EXPECT_EQ(s->keyframes[4]->T_c_w.translation(), held_before.translation());
+  EXPECT_EQ(s->keyframes[4]->T_c_w.quaternion().coeffs(), held_before.quaternion().coeffs());
+  // The free ones move (towards a solution that the held one anchors where it is, 3 cm off).
+  for (size_t k : {1u, 2u, 3u, 5u, 6u, 7u})
+    EXPECT_GT(translationError(s->keyframes[k]->T_c_w, before[k]), 0.005) << "keyframe " << k;
+}
+
 // The builder copies what the map says: fixed keyframes anchor points without contributing
 // their own, bad keyframes and points are left out; applying skips what went bad meanwhile.
 TEST(MapBaProblem, BuilderAndApplyFollowTheMap) {
