@@ -51,7 +51,7 @@ struct AtlasAteResult {
   std::vector<MapAte> maps;  // by world_map id
   ErrorStats all_maps_m;     // every matched pose's error, each map aligned on its own
 };
-// Throws InputError (worded as computeAte's) when no map has 3 associated poses.
+// Throws InputError when no map has 3 poses that associate with the ground truth.
 AtlasAteResult computeAtlasAte(const Trajectory& gt, const AtlasTrajectory& est, double max_dt = 0.02);
 
 // One RPE pair: estimate poses at start_time and end_time (about delta_s later).

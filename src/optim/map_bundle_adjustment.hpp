@@ -41,7 +41,8 @@ struct GlobalBaResult {
 };
 
 // Every keyframe and point of the map; the origins and the held keyframes are fixed
-// (map::globalBaFixed). Takes the map lock shared to copy the problem out and exclusively to write it back; solves unlocked.
+// (map::globalBaFixed). Takes the map lock shared to copy the problem out and exclusively to write
+// it back; solves unlocked.
 GlobalBaResult globalBundleAdjustment(map::Map& map, const PinholeCamera& camera,
                                       const BundleAdjustmentOptions& options,
                                       const std::atomic<bool>* abort = nullptr);
