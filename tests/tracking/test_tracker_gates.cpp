@@ -105,6 +105,21 @@ double cameraDistance(const SE3& T_c_w_a, const SE3& T_c_w_b) {
   return (T_c_w_a.inverse().translation() - T_c_w_b.inverse().translation()).norm();
 }
 
+// Makes every map point bad but the first n a camera at T_c_w sees (the view covered elsewhere, or
+// the map thinned there); how many it kept.
+size_t keepOnlyPointsSeenFrom(Rig& rig, const SystemOptions& options, const SE3& T_c_w, size_t n) {
+  const PinholeCamera camera(options.camera);
+  std::unique_lock lock(rig.map().mutex());
+  size_t kept = 0;
+  for (map::MapPoint* p : rig.map().points()) {
+    const Vec3 p_c = T_c_w * p->position;
+    const bool seen = p_c.z() > options.tracking.min_depth && camera.inImage(camera.project(p_c));
+    p->bad = !(seen && kept < n);
+    if (!p->bad) ++kept;
+  }
+  return kept;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Speed gate
 
@@ -224,6 +239,16 @@ TEST(TrackerSpeedGate, AFrameFoundAgainInTheSameMapIsHeldToTheSpeedSinceTheLastT
 // The camera slides sideways 4 mm per frame, then 12 mm on the last tracked frame (as an
 // estimate pulled by walkers crossing just before a loss is). The covered frame after it gets the
 // average motion of the last 5 tracked frames, not the last step alone.
+// Frames 0..kSpeedFrames-1 of `path` tracked, then frame kSpeedFrames covered (bridged).
+void trackThenCover(Rig& rig, const Trajectory& path) {
+  for (int i = 0; i < kSpeedFrames; ++i) {
+    map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
+    ASSERT_TRUE(rig.track(frame).tracked) << "frame " << i;
+  }
+  map::Frame covered = rig.blank(path[kSpeedFrames].timestamp, kSpeedFrames);
+  ASSERT_TRUE(rig.track(covered).predicted);
+}
+
 TEST(TrackerBridging, ACoveredFrameGetsTheAverageMotionOfTheLastFiveTrackedFrames) {
   SystemOptions options = baseOptions();
   const double frame_s = 1.0 / options.camera.fps;
@@ -313,12 +338,7 @@ TEST(TrackerBridging, AFrameFoundAgainFarFromTheBridgedPoseIsRefused) {
     for (const bool displaced : {true, false}) {
       SCOPED_TRACE(displaced ? "displaced" : "on the path");
       Rig rig(options);
-      for (int i = 0; i < kSpeedFrames; ++i) {
-        map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
-        ASSERT_TRUE(rig.track(frame).tracked) << "frame " << i;
-      }
-      map::Frame covered = rig.blank(path[kSpeedFrames].timestamp, kSpeedFrames);
-      ASSERT_TRUE(rig.track(covered).predicted);
+      ASSERT_NO_FATAL_FAILURE(trackThenCover(rig, path));
       map::Frame back = rig.render(displaced ? T_w_jump : next.T_w_c, next.timestamp, kSpeedFrames + 1);
       ASSERT_NEAR(next.timestamp - path[kSpeedFrames - 1].timestamp, 2 * frame_s, 1e-9);
       const TrackOutcome outcome = rig.track(back);
@@ -536,20 +556,9 @@ void weakPoseKeyframe(double shift_m, bool weak) {
     ASSERT_TRUE(rig.track(frame).tracked) << "frame " << i;
   }
   // Only points_kept of the points the next frame sees stay.
-  {
-    const PinholeCamera camera(options.camera);
-    const SE3 T_c_w = expectedTcw(kSpeedFrames);
-    std::unique_lock lock(rig.map().mutex());
-    size_t kept = 0;
-    for (map::MapPoint* p : rig.map().points()) {
-      const Vec3 p_c = T_c_w * p->position;
-      const bool seen = p_c.z() > options.tracking.min_depth && camera.inImage(camera.project(p_c));
-      p->bad = !(seen && kept < points_kept);
-      if (!p->bad) ++kept;
-    }
-    if (weak) {
-      ASSERT_EQ(kept, points_kept);
-    }
+  const size_t kept = keepOnlyPointsSeenFrom(rig, options, expectedTcw(kSpeedFrames), points_kept);
+  if (weak) {
+    ASSERT_EQ(kept, points_kept);
   }
   map::Frame weak_frame = rig.render(path[kSpeedFrames].T_w_c, path[kSpeedFrames].timestamp, kSpeedFrames);
   SE3 shifted_T_c_w;
@@ -601,24 +610,8 @@ void recoveringWeakPose(double max_acceleration, double displacement_m, size_t p
   const SE3 T_w_seen(next.T_w_c.rotation(), next.T_w_c.translation() + next.T_w_c.rotation() * Vec3(displacement_m, 0, 0));
   const SE3 expected_T_c_w = (path.front().T_w_c.inverse() * T_w_seen).inverse();
   Rig rig(options);
-  for (int i = 0; i < kSpeedFrames; ++i) {
-    map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
-    ASSERT_TRUE(rig.track(frame).tracked) << "frame " << i;
-  }
-  map::Frame covered = rig.blank(path[kSpeedFrames].timestamp, kSpeedFrames);
-  ASSERT_TRUE(rig.track(covered).predicted);
-  {
-    const PinholeCamera camera(options.camera);
-    std::unique_lock lock(rig.map().mutex());
-    size_t kept = 0;
-    for (map::MapPoint* p : rig.map().points()) {
-      const Vec3 p_c = expected_T_c_w * p->position;
-      const bool seen = p_c.z() > options.tracking.min_depth && camera.inImage(camera.project(p_c));
-      p->bad = !(seen && kept < points_kept);
-      if (!p->bad) ++kept;
-    }
-    ASSERT_EQ(kept, points_kept);
-  }
+  ASSERT_NO_FATAL_FAILURE(trackThenCover(rig, path));
+  ASSERT_EQ(keepOnlyPointsSeenFrom(rig, options, expected_T_c_w, points_kept), points_kept);
   map::Frame back = rig.render(T_w_seen, next.timestamp, kSpeedFrames + 1);
   const TrackOutcome outcome = rig.track(back);
   EXPECT_EQ(outcome.tracked, expect_tracked);
