@@ -56,6 +56,13 @@ bool nearPrediction(const SE3& T_c_w, const SE3& predicted_T_c_w, double max_dev
          difference.rotationAngle() <= kWeakMaxDeviationRad;
 }
 
+// How far from the bridged (or predicted) pose a pose found `seconds` after the last tracked frame
+// may lie (tracking.max_acceleration_m_s2 = a): 3 cm + a t^2 / 2, at least one frame's worth of t.
+double bridgeBoundM(double a, double seconds) {
+  const double t = std::max(seconds, 1.0 / 30.0);
+  return kWeakMaxDeviationM + 0.5 * a * t * t;
+}
+
 // Without a tracked frame just before this one, stage 1 cannot vouch for masked features: they
 // stay out of the pose and the map.
 void keepUnverifiedMaskedFeaturesOut(map::Frame& frame) {
@@ -213,8 +220,7 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     if (inliers >= kMinWeakInliers && nearPrediction(frame.T_c_w, predicted_T_c_w)) return true;
     const double a = options_.tracking.max_acceleration_m_s2;
     if (!recovering || a <= 0 || inliers < kMinLocalMapInliersAfterStage2) return false;
-    const double seconds = std::max(frame.timestamp - last_frame_.timestamp, 1.0 / 30.0);
-    return nearPrediction(frame.T_c_w, predicted_T_c_w, kWeakMaxDeviationM + 0.5 * a * seconds * seconds);
+    return nearPrediction(frame.T_c_w, predicted_T_c_w, bridgeBoundM(a, frame.timestamp - last_frame_.timestamp));
   };
   bool weak = false;
   if (attempted && !ok && weakButConsistent()) ok = weak = true;
@@ -1084,7 +1090,7 @@ bool Tracker::disagreesWithBridge(const map::Frame& frame) const {
   const double seconds = std::max(frame.timestamp - last_frame_.timestamp, 1.0 / 30.0);
   const SE3 bridged = bridgedPose(frame.timestamp);
   const double off_m = (frame.T_c_w.inverse().translation() - bridged.inverse().translation()).norm();
-  const double limit_m = kWeakMaxDeviationM + 0.5 * a * seconds * seconds;
+  const double limit_m = bridgeBoundM(a, seconds);
   spdlog::debug("tracking: frame {} found again {:.3f} m from the bridged pose after {:.3f} s (limit {:.3f} m): {}",
                 frame.id, off_m, seconds, limit_m, off_m > limit_m ? "refused" : "accepted");
   return off_m > limit_m;
