@@ -272,6 +272,7 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   stats.weak = outcome.weak;
   stats.predicted = outcome.predicted;
   stats.odometry = outcome.odometry;
+  stats.depth_odometry = outcome.depth_odometry;
   if (outcome.relocalisation) {
     const tracking::RelocalisationResult& r = *outcome.relocalisation;
     stats.reloc_candidates = r.candidates;
@@ -679,7 +680,8 @@ nlohmann::json SlamSystem::statistics() const {
                          {"timestamp", f.timestamp}, {"map", f.map}, {"new_map", f.new_map},
                          {"features_with_depth", f.features_with_depth},
                          {"static_with_depth", f.static_with_depth},
-                         {"weak", f.weak}, {"odometry", f.odometry}, {"predicted", f.predicted},
+                         {"weak", f.weak}, {"odometry", f.odometry},
+                         {"depth_odometry", f.depth_odometry}, {"predicted", f.predicted},
                          {"backfilled", f.backfilled},
                          {"interpolated", f.interpolated}, {"predicted_backwards", f.predicted_backwards},
                          {"held", f.held}});
@@ -706,6 +708,7 @@ nlohmann::json SlamSystem::statistics() const {
                    {"bridge_disagreements_refused", tracker_.bridgeDisagreements()},
                    {"weak_poses", tracker_.weakPoses()},
                    {"odometry_poses", tracker_.odometryPoses()},
+                   {"depth_odometry_poses", tracker_.depthOdometryPoses()},
                    {"predicted_poses", tracker_.predictedPoses()},
                    {"backfilled_poses", tracker_.backfilledPoses()},
                    {"interpolated_poses", tracker_.interpolatedPoses()},

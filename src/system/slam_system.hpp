@@ -96,6 +96,7 @@ struct FrameStats {
   bool new_map = false;       // the frame started a map of the atlas
   bool weak = false;          // tracked with few inliers that agreed with the motion prediction
   bool odometry = false;      // tracked by frame-to-frame odometry alone (tracking.odometry_min_inliers)
+  bool depth_odometry = false;  // of those, by depth alignment (tracking.depth_odometry_max_s)
   bool predicted = false;     // not tracked: the motion prediction is its pose (tracking.predict_through_loss_s)
   bool backfilled = false;    // not tracked then: a later frame's tracking gave it a pose (tracking.backfill_max_s)
   bool interpolated = false;  // not tracked then: its pose lies between the frames tracked before and after

@@ -107,6 +107,12 @@ Tracker::Tracker(const TrackerOptions& options, const PinholeCamera& camera, map
     relocaliser_.emplace(options.relocalisation, camera_, map_, *database, bf_);
   matcher_options_ = options.matching;
   stage1_enabled_ = stage2_enabled_ = usesDepthChecks(options.dynamic.mode);
+  if (options.tracking.depth_odometry_max_s > 0) {
+    DepthAlignmentOptions depth;
+    depth.min_depth_m = options.tracking.min_depth;
+    depth.max_depth_m = options.tracking.max_depth;
+    depth_aligner_.emplace(camera_, depth);
+  }
 }
 
 TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_backlog) {
@@ -188,6 +194,20 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
       first_estimate = "odometry";
     }
   }
+  // Nor from the features at all (people covering the texture, motion blur): the depth image
+  // still shows walls, floor and furniture. Only while tracking holds, for a limited run: its
+  // frame-to-frame drift goes uncorrected until the map is found again.
+  std::optional<SE3> depth_pose;
+  if (!ok && !odometry && !recovering && had_motion && depth_aligner_ &&
+      (!depth_only_since_ || frame.timestamp - *depth_only_since_ <= options_.tracking.depth_odometry_max_s)) {
+    depth_pose = trackWithDepth(frame, predicted_T_c_w);
+    if (depth_pose) {
+      frame.clearMatches();
+      frame.T_c_w = *depth_pose;
+      ok = true;
+      first_estimate = "depth odometry";
+    }
+  }
   // Too few features outside the mask for a first estimate (a person filling the view): fall
   // back on the motion prediction and let stage 1 and the local map decide. Only then: without
   // masked features a failed first estimate means the prediction is not to be trusted.
@@ -239,6 +259,14 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     inliers = odometry->inliers;
     ok = odometry_only = true;
   }
+  bool depth_only = false;
+  if (!ok && depth_pose) {
+    spdlog::debug("tracking: frame {} keeps its depth-odometry pose: the local map gave {} inliers", frame.id, inliers);
+    frame.T_c_w = *depth_pose;
+    frame.clearMatches();
+    inliers = 0;
+    ok = odometry_only = depth_only = true;
+  }
   if (ok && stage2_enabled_ && !odometry_only) {
     outcome.stage2_removed = applyStage2(frame);
     if (outcome.stage2_removed > 0) inliers = optimizeFramePose(frame);
@@ -269,7 +297,11 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   }
 
   outcome.odometry = ok && odometry_only;
+  outcome.depth_odometry = ok && depth_only;
   if (outcome.odometry) ++odometry_poses_;
+  if (outcome.depth_odometry) ++depth_odometry_poses_;
+  if (!outcome.depth_odometry) depth_only_since_.reset();
+  else if (!depth_only_since_) depth_only_since_ = frame.timestamp;
   if (!ok) {
     // The run of frames tracked after an earlier loss ends here: their motion is all there is.
     predictBackwards(outcome, TrackEnd::kLost);
@@ -362,7 +394,9 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   if (!outcome.odometry) odometry_only_since_.reset();
   else if (!odometry_only_since_) odometry_only_since_ = frame.timestamp;
   bool may_make_keyframe = true, hold_pose = false;
-  if (outcome.odometry) {
+  if (outcome.depth_odometry) {
+    may_make_keyframe = false;  // no feature of it was matched: nothing to map from
+  } else if (outcome.odometry) {
     const double after_s = options_.tracking.odometry_keyframe_after_s;
     const bool left_behind = after_s > 0 && frame.timestamp - *odometry_only_since_ >= after_s &&
                              (maskedShare(frame) <= options_.tracking.odometry_keyframe_max_masked_share ||
@@ -932,6 +966,26 @@ bool Tracker::trackWithMotionModel(map::Frame& frame) {
     }
   }
   return inliers >= kMinMapInliersStep;
+}
+
+std::optional<SE3> Tracker::trackWithDepth(const map::Frame& frame, const SE3& predicted_T_c_w) {
+  if (last_frame_.depth.empty() || frame.depth.empty()) return std::nullopt;
+  if (!last_depth_pyramid_ || last_depth_pyramid_->first != last_frame_.id)
+    last_depth_pyramid_.emplace(last_frame_.id, depth_aligner_->prepare(last_frame_.depth, last_frame_.dynamic_mask));
+  DepthPyramid current = depth_aligner_->prepare(frame.depth, frame.dynamic_mask);
+  const SE3 T_cur_last_guess = predicted_T_c_w * last_frame_.T_c_w.inverse();
+  const DepthAlignmentResult r = depth_aligner_->align(last_depth_pyramid_->second, current, T_cur_last_guess);
+  const SE3 T_c_w = r.T_cur_ref * last_frame_.T_c_w;
+  spdlog::debug("tracking: frame {} depth alignment to frame {}: {} pairs, overlap {:.2f}, rms {:.4f} m, constraint "
+                "{:.4f}, {:.3f} m and {:.2f} deg from the prediction: {}",
+                frame.id, last_frame_.id, r.correspondences, r.overlap, r.rms_m, r.constraint,
+                (T_c_w.inverse().translation() - predicted_T_c_w.inverse().translation()).norm(),
+                (T_c_w * predicted_T_c_w.inverse()).rotationAngle() * 180.0 / M_PI,
+                r.accepted ? "accepted" : r.refusal);
+  if (!r.accepted) return std::nullopt;
+  // The frame, if it keeps this pose, is the next one's reference.
+  last_depth_pyramid_.emplace(frame.id, std::move(current));
+  return T_c_w;
 }
 
 std::optional<Tracker::OdometryPose> Tracker::trackWithOdometry(const map::Frame& frame) const {

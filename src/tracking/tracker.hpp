@@ -17,6 +17,7 @@
 #include "map/frame.hpp"
 #include "map/map.hpp"
 #include "matching/matcher.hpp"
+#include "tracking/depth_alignment.hpp"
 #include "tracking/relocaliser.hpp"
 #include "tracking/tracking_options.hpp"
 
@@ -71,6 +72,7 @@ struct TrackOutcome {
   bool weak = false;                      // tracked with few inliers that agreed with the motion prediction
   bool predicted = false;                 // not tracked, but given the motion prediction as its pose
   bool odometry = false;                  // the map gave no pose; frame-to-frame odometry did (counts as tracked)
+  bool depth_odometry = false;            // ... depth alignment to the last frame did (tracking.depth_odometry_max_s)
   // Earlier frames (lost, or predicted) whose records were replaced now: tracked backwards from
   // this frame (tracking.backfill_max_s), or interpolated between the last frame tracked before
   // the loss and them (found again in the same map).
@@ -110,6 +112,7 @@ class Tracker {
   int predictedPoses() const { return predicted_poses_; }  // lost frames given the motion prediction
   int backfilledPoses() const { return backfilled_poses_; }  // frames tracked backwards afterwards
   int odometryPoses() const { return odometry_poses_; }  // frames whose pose came from odometry alone
+  int depthOdometryPoses() const { return depth_odometry_poses_; }  // of those, from depth alignment
   int interpolatedPoses() const { return interpolated_poses_; }  // frames interpolated afterwards
   int backwardPredictedPoses() const { return backward_predicted_poses_; }  // tracking.predict_back_s
   // The end of a run: frames still waiting for the motion after their loss
@@ -219,6 +222,9 @@ class Tracker {
     int inliers = 0;
   };
   std::optional<OdometryPose> trackWithOdometry(const map::Frame& frame) const;
+  // tracking.depth_odometry_max_s: the frame's pose from its depth aligned to last_frame_'s, from
+  // the prediction; nothing when the alignment is refused (DepthAlignmentResult::accepted).
+  std::optional<SE3> trackWithDepth(const map::Frame& frame, const SE3& predicted_T_c_w);
   // The camera motion T_later_earlier over `seconds` at the current velocity (identity without one).
   SE3 motionOver(double seconds) const;
   // Whether pose T_c_w at time t implies a camera faster than tracking.max_speed_m_s since the last
@@ -307,6 +313,7 @@ class Tracker {
   int predicted_poses_ = 0;
   int backfilled_poses_ = 0;
   int odometry_poses_ = 0;
+  int depth_odometry_poses_ = 0;
   int interpolated_poses_ = 0;
   int backward_predicted_poses_ = 0;
   int held_poses_ = 0;
@@ -315,6 +322,10 @@ class Tracker {
   Timestamp lost_since_ = 0;    // timestamp of the first lost frame of the current loss
   Timestamp search_other_maps_until_ = 0;  // findInOtherMap() is tried up to this time
   std::optional<Timestamp> odometry_only_since_;  // first frame of the current run of odometry-only poses
+  std::optional<DepthAligner> depth_aligner_;     // tracking.depth_odometry_max_s > 0
+  // last_frame_'s depth prepared for alignment, when it was (the frame aligned last becomes the next one's reference).
+  std::optional<std::pair<uint64_t, DepthPyramid>> last_depth_pyramid_;
+  std::optional<Timestamp> depth_only_since_;     // first frame of the current run of depth-odometry poses
   std::optional<Relocaliser> relocaliser_;
 };
 

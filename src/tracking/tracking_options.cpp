@@ -35,6 +35,7 @@ void TrackingOptions::validate() const {
   requireInRange(s, "odometry_keyframe_after_s", odometry_keyframe_after_s, 0.0, 60.0);
   requireInRange(s, "odometry_keyframe_max_masked_share", odometry_keyframe_max_masked_share, 0.0, 1.0);
   requireInRange(s, "odometry_keyframe_min_clear_inliers", odometry_keyframe_min_clear_inliers, 0, 10000);
+  requireInRange(s, "depth_odometry_max_s", depth_odometry_max_s, 0.0, 60.0);
 }
 
 void RelocalisationOptions::validate() const {

@@ -137,6 +137,18 @@ struct TrackingOptions {
   // people covered 30-63 % of the view while the camera swept on: 50 frames by odometry alone
   // (118-345 inliers each, the local map giving 0-9), then the track was lost. 0 = only the share.
   int odometry_keyframe_min_clear_inliers = 100;
+  // When neither the map nor feature odometry gives a pose while tracking holds, the frame's depth
+  // image is aligned to the last tracked frame's (tracking/depth_alignment.hpp: point-to-plane ICP
+  // from the constant-velocity prediction, pixels in either frame's person mask left out). The
+  // local-map search starts from that pose; if it finds too few points the frame keeps the depth
+  // pose (report: "depth_odometry"; counted as tracked, no keyframe) and the next frame goes on from
+  // it, for at most this long (seconds) before the track counts as lost. 0 = off, the default: with
+  // 1 s (and a weaker constraint bound than now), Bonn crowd frames 446-447 were tracked (1.7 cm
+  // off, like their neighbours), but on fr1 composites the depth poses drifted 1.5-5 cm per frame
+  // where the view (a desk, a wall, people the masks missed) left a motion weakly seen: "all" worse
+  // by 4-21 mm on 12 of 29 runs, better on 4 (session 28, docs/RESULTS.md). The bound now refuses
+  // those views; crowded indoor views rarely have the structure depth alone needs.
+  double depth_odometry_max_s = 0.0;
 
   static constexpr const char* kSection = "tracking";
   template <class V> void fields(V& v) {
@@ -162,6 +174,7 @@ struct TrackingOptions {
     v("odometry_keyframe_after_s", odometry_keyframe_after_s);
     v("odometry_keyframe_max_masked_share", odometry_keyframe_max_masked_share);
     v("odometry_keyframe_min_clear_inliers", odometry_keyframe_min_clear_inliers);
+    v("depth_odometry_max_s", depth_odometry_max_s);
   }
   void validate() const;
 };

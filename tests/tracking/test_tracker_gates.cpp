@@ -75,6 +75,14 @@ class Rig {
                                           "scaled_" + std::to_string(id));
   }
 
+  // The view with its texture gone (a black image: no feature), its depth still there.
+  map::Frame renderUntextured(const SE3& T_w_c, Timestamp t, uint64_t id) const {
+    const sim::RenderedFrame rendered = scene_.render(T_w_c, t);
+    const cv::Mat gray(rendered.depth.size(), CV_8UC1, cv::Scalar(0));
+    return desslam::test::frameFromImages(gray, rendered.depth, extractor_, pyramid_, camera_, options_.tracking, t,
+                                          id, "untextured_" + std::to_string(id));
+  }
+
   map::Frame blank(Timestamp t, uint64_t id) const {
     return desslam::test::coveredFrame(extractor_, pyramid_, camera_, options_.tracking, t, id);
   }
@@ -776,6 +784,83 @@ TEST(TrackerCrowdedView, NoKeyframeRightAfterTheLastWhenTheMaskCoversMostFeature
   // A narrow mask is no crowd: the keyframe is made.
   const MarginResult narrow = runMargin(kStripFrom, kStripTo, 0, map::FeatureStatus::kDynamicMask, 5);
   EXPECT_NE(narrow.outcome.new_keyframe, nullptr);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Depth odometry (tracking.depth_odometry_max_s)
+
+// The camera looks into a corner of the room (walls, floor, furniture: depth sees every motion)
+// and moves at 0.3 m/s, turning 15 deg/s. After kSpeedFrames textured frames, three lose their
+// texture (a black image: no feature) but keep their depth; then the texture comes back.
+// Aligned to the last frame's depth, the three are tracked (depth odometry), within 1 cm and
+// 0.5 deg of the truth, and make no keyframe; the next textured frame is tracked in the map.
+// With the option off they are only predicted.
+TEST(TrackerDepthOdometry, FramesWithoutTextureAreTrackedByTheirDepthAndMakeNoKeyframe) {
+  constexpr int kUntextured = 3;
+  for (const double max_s : {1.0, 0.0}) {
+    SCOPED_TRACE(max_s);
+    SystemOptions options = baseOptions();
+    options.tracking.depth_odometry_max_s = max_s;
+    const double frame_s = 1.0 / options.camera.fps;
+    const SE3 T_w_start(sim::lookRotation(-45.0 * M_PI / 180, -35.0 * M_PI / 180, 0.0), Vec3(1.0, -0.5, 1.4));
+    Trajectory path;
+    for (int i = 0; i < kSpeedFrames + kUntextured + 1; ++i) {
+      const double t = i * frame_s;
+      const SE3 motion(Mat3(Eigen::AngleAxisd(15.0 * M_PI / 180 * t, Vec3(0, 1, 0))), Vec3(0.3 * t, 0.0, 0.0));
+      path.push_back({1000.0 + t, T_w_start * motion});
+    }
+    Rig rig(options);
+    for (int i = 0; i < kSpeedFrames; ++i) {
+      map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
+      ASSERT_TRUE(rig.track(frame).tracked) << "frame " << i;
+    }
+    for (int i = kSpeedFrames; i < kSpeedFrames + kUntextured; ++i) {
+      map::Frame frame = rig.renderUntextured(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
+      ASSERT_EQ(frame.features->size(), 0u);
+      const TrackOutcome outcome = rig.track(frame);
+      if (max_s > 0) {
+        EXPECT_TRUE(outcome.tracked) << "frame " << i;
+        EXPECT_TRUE(outcome.depth_odometry) << "frame " << i;
+        EXPECT_EQ(outcome.new_keyframe, nullptr) << "frame " << i;
+        // The map's world is the first frame's camera.
+        const SE3 T_c_w_true = path[i].T_w_c.inverse() * path[0].T_w_c;
+        EXPECT_LT(cameraDistance(frame.T_c_w, T_c_w_true), 0.01) << "frame " << i;
+        EXPECT_LT((frame.T_c_w * T_c_w_true.inverse()).rotationAngle() * 180 / M_PI, 0.5) << "frame " << i;
+      } else {
+        EXPECT_FALSE(outcome.tracked) << "frame " << i;
+        EXPECT_TRUE(outcome.predicted) << "frame " << i;
+      }
+    }
+    const int last = kSpeedFrames + kUntextured;
+    map::Frame textured = rig.render(path[last].T_w_c, path[last].timestamp, static_cast<uint64_t>(last));
+    const TrackOutcome back = rig.track(textured);
+    EXPECT_TRUE(back.tracked);
+    EXPECT_FALSE(back.depth_odometry);
+    EXPECT_EQ(rig.tracker().depthOdometryPoses(), max_s > 0 ? kUntextured : 0);
+  }
+}
+
+// After tracking.depth_odometry_max_s of depth odometry alone, the next such frame is lost: its
+// frame-to-frame drift is never corrected by the map.
+TEST(TrackerDepthOdometry, StopsAfterItsLongestRun) {
+  SystemOptions options = baseOptions();
+  const double frame_s = 1.0 / options.camera.fps;
+  options.tracking.depth_odometry_max_s = 2.5 * frame_s;  // three frames: at 0, 1 and 2 frames
+  const SE3 T_w_start(sim::lookRotation(-45.0 * M_PI / 180, -35.0 * M_PI / 180, 0.0), Vec3(1.0, -0.5, 1.4));
+  Rig rig(options);
+  int i = 0;
+  const auto pose = [&](int k) { return T_w_start * SE3(Mat3::Identity(), Vec3(0.005 * k, 0.0, 0.0)); };
+  for (; i < kSpeedFrames; ++i) {
+    map::Frame frame = rig.render(pose(i), 1000.0 + i * frame_s, static_cast<uint64_t>(i));
+    ASSERT_TRUE(rig.track(frame).tracked) << "frame " << i;
+  }
+  std::vector<bool> by_depth;
+  for (int k = 0; k < 5; ++k, ++i) {
+    map::Frame frame = rig.renderUntextured(pose(i), 1000.0 + i * frame_s, static_cast<uint64_t>(i));
+    by_depth.push_back(rig.track(frame).depth_odometry);
+  }
+  EXPECT_EQ(by_depth, (std::vector<bool>{true, true, true, false, false}));
+  EXPECT_EQ(rig.tracker().losses(), 1);
 }
 
 }  // namespace
