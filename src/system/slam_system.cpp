@@ -709,6 +709,7 @@ nlohmann::json SlamSystem::statistics() const {
                    {"weak_poses", tracker_.weakPoses()},
                    {"odometry_poses", tracker_.odometryPoses()},
                    {"depth_odometry_poses", tracker_.depthOdometryPoses()},
+                   {"predicted_by_odometry", tracker_.predictedByOdometry()},
                    {"predicted_poses", tracker_.predictedPoses()},
                    {"backfilled_poses", tracker_.backfilledPoses()},
                    {"interpolated_poses", tracker_.interpolatedPoses()},

@@ -143,6 +143,9 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
                                                options_.tracking.min_depth, options_.tracking.max_depth);
   }
 
+  // The frame before this one when it was given a predicted pose (see the loss below).
+  std::optional<map::Frame> previous_predicted;
+  previous_predicted.swap(last_predicted_);
   bool ok = false;
   // Just lost (a crowd covered the view for a moment): the motion before the loss still predicts
   // where to look, for tracking.predict_through_loss_s after the last tracked frame.
@@ -186,7 +189,7 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   // keyframe too few points, yet hundreds of static features still match the last frame's.
   std::optional<OdometryPose> odometry;
   if (!ok && options_.tracking.odometry_min_inliers > 0) {
-    odometry = trackWithOdometry(frame);
+    odometry = trackWithOdometry(frame, last_frame_);
     if (odometry) {
       frame.T_c_w = odometry->T_c_w;
       frame.matches = odometry->matches;
@@ -332,6 +335,27 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
     if (predict) {
       frame.clearMatches();
       frame.T_c_w = bridgedPose(frame.timestamp);
+      // After the first predicted frame: the motion since the one before, measured by
+      // frame-to-frame odometry against it where it can be, else the bridge's own step; the
+      // bridge from the last tracked frame is what this frame's search and gates still use. A
+      // sweep that speeds up or turns as the loss begins leaves the constant velocity behind (an
+      // fr1_desk composite: 19 cm off after 10 frames, while odometry between consecutive frames
+      // found 68-100 inliers each).
+      // A step faster than tracking.max_speed_m_s came from a wrong consensus (a 25 cm jump in one
+      // frame on an fr1_desk composite): the bridge's step then.
+      if (previous_predicted && previous_predicted->id + 1 == frame.id) {
+        const SE3 bridge_step = frame.T_c_w * bridgedPose(previous_predicted->timestamp).inverse();
+        frame.T_c_w = bridge_step * previous_predicted->T_c_w;
+        const std::optional<OdometryPose> step = options_.tracking.odometry_min_inliers > 0
+                                                     ? trackWithOdometry(frame, *previous_predicted)
+                                                     : std::nullopt;
+        const double step_s = std::max(frame.timestamp - previous_predicted->timestamp, 1.0 / 30.0);
+        if (step && (step->T_c_w.inverse().translation() - previous_predicted->T_c_w.inverse().translation()).norm() <=
+                        options_.tracking.max_speed_m_s * step_s) {
+          frame.T_c_w = step->T_c_w;
+          ++predicted_by_odometry_;
+        }
+      }
       frame.has_pose = true;
       SE3 T_c_r;
       {
@@ -342,6 +366,9 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
       ++predicted_poses_;
       outcome.predicted = true;
       keepUnsettled(frame, /*predicted=*/true);
+      last_predicted_ = frame;
+      last_predicted_->depth = cv::Mat();  // the features hold their depth; the image may be the caller's buffer
+      last_predicted_->dynamic_mask = cv::Mat();
       return outcome;
     }
     ++lost_frames_;
@@ -988,9 +1015,10 @@ std::optional<SE3> Tracker::trackWithDepth(const map::Frame& frame, const SE3& p
   return T_c_w;
 }
 
-std::optional<Tracker::OdometryPose> Tracker::trackWithOdometry(const map::Frame& frame) const {
-  if (last_frame_.features == nullptr || frame.features == nullptr) return std::nullopt;
-  const map::FeatureSet& last = *last_frame_.features;
+std::optional<Tracker::OdometryPose> Tracker::trackWithOdometry(const map::Frame& frame,
+                                                                const map::Frame& last_frame) const {
+  if (last_frame.features == nullptr || frame.features == nullptr) return std::nullopt;
+  const map::FeatureSet& last = *last_frame.features;
   const map::FeatureSet& current = *frame.features;
   const int min_inliers = options_.tracking.odometry_min_inliers;
   // The last frame's static features with a 3-D point: its map point, else its own depth.
@@ -999,10 +1027,10 @@ std::optional<Tracker::OdometryPose> Tracker::trackWithOdometry(const map::Frame
   std::vector<map::MapPoint*> last_points(last.size(), nullptr);
   {
     std::shared_lock lock(map_.mutex());
-    const SE3 T_w_l = last_frame_.T_c_w.inverse();
+    const SE3 T_w_l = last_frame.T_c_w.inverse();
     for (size_t i = 0; i < last.size(); ++i) {
-      if (!last_frame_.usable(i)) continue;
-      const map::FeatureMatch& m = last_frame_.matches[i];
+      if (!last_frame.usable(i)) continue;
+      const map::FeatureMatch& m = last_frame.matches[i];
       if (m.point != nullptr && !m.outlier && !m.point->bad) {
         last_p_w[i] = m.point->position;
         last_points[i] = m.point;
@@ -1021,14 +1049,14 @@ std::optional<Tracker::OdometryPose> Tracker::trackWithOdometry(const map::Frame
 
   // Descriptor matches within a window around the same pixel (no prediction), so that the ratio
   // test compares neighbours only and a repeated texture elsewhere does not void it.
-  const double frames_elapsed = std::max(1.0, (frame.timestamp - last_frame_.timestamp) * 30.0);
+  const double frames_elapsed = std::max(1.0, (frame.timestamp - last_frame.timestamp) * 30.0);
   const double window_px = std::min(kOdometryWindowPx * frames_elapsed, kOdometryMaxWindowPx);
   const std::vector<std::pair<int, int>> pairs = matching::matchDescriptors(
       last, last_indices, current, current_indices, kOdometryMaxDescriptorDistance, kOdometryMatchRatio,
       /*check_orientation=*/true,
       [&](int i, int j) { return (last.uv[i] - current.uv[j]).norm() <= window_px; });
   if (static_cast<int>(pairs.size()) < min_inliers) {
-    spdlog::debug("tracking: frame {} odometry against frame {}: {} matches", frame.id, last_frame_.id, pairs.size());
+    spdlog::debug("tracking: frame {} odometry against frame {}: {} matches", frame.id, last_frame.id, pairs.size());
     return std::nullopt;
   }
 
@@ -1086,7 +1114,7 @@ std::optional<Tracker::OdometryPose> Tracker::trackWithOdometry(const map::Frame
   }
   if (best < min_inliers) {
     spdlog::debug("tracking: frame {} odometry against frame {}: {} matches, {} inliers at best", frame.id,
-                  last_frame_.id, pairs.size(), best);
+                  last_frame.id, pairs.size(), best);
     return std::nullopt;
   }
   // The fit of three points is only a hypothesis: the pose comes from pose-only optimisation on
@@ -1122,7 +1150,7 @@ std::optional<Tracker::OdometryPose> Tracker::trackWithOdometry(const map::Frame
   result.T_c_w = best_T_c_w;
   result.inliers = static_cast<int>(inliers.size());
   result.matches = matchesOf(inliers);
-  spdlog::debug("tracking: frame {} odometry against frame {}: {} matches, {} inliers", frame.id, last_frame_.id,
+  spdlog::debug("tracking: frame {} odometry against frame {}: {} matches, {} inliers", frame.id, last_frame.id,
                 pairs.size(), result.inliers);
   if (implausibleJump(result.T_c_w, frame.timestamp)) return std::nullopt;
   return result;

@@ -110,6 +110,8 @@ class Tracker {
   int bridgeDisagreements() const { return bridge_disagreements_; }
   int weakPoses() const { return weak_poses_; }  // frames kept with few inliers near the prediction
   int predictedPoses() const { return predicted_poses_; }  // lost frames given the motion prediction
+  // Of those, the ones whose motion since the predicted frame before came from odometry against it.
+  int predictedByOdometry() const { return predicted_by_odometry_; }
   int backfilledPoses() const { return backfilled_poses_; }  // frames tracked backwards afterwards
   int odometryPoses() const { return odometry_poses_; }  // frames whose pose came from odometry alone
   int depthOdometryPoses() const { return depth_odometry_poses_; }  // of those, from depth alignment
@@ -213,15 +215,16 @@ class Tracker {
   enum class TrackEnd { kNotYet, kLost, kRunOver };
   void predictBackwards(TrackOutcome& outcome, TrackEnd end);
   bool trackReferenceKeyframe(map::Frame& frame);
-  // Frame-to-frame odometry against last_frame_ (tracking.odometry_min_inliers): descriptor
-  // matches of the frame's static features with the last frame's depth-backed ones, then
-  // PnP-RANSAC. Nothing when too few inliers or the camera would have moved implausibly fast.
+  // Frame-to-frame odometry against last_frame (last_frame_, or the predicted frame before this one)
+  // (tracking.odometry_min_inliers): descriptor matches of the frame's static features with the
+  // last frame's depth-backed ones, then PnP-RANSAC. Nothing when too few inliers or the camera
+  // would have moved implausibly fast.
   struct OdometryPose {
     SE3 T_c_w;
     std::vector<map::FeatureMatch> matches;  // the inliers: map points, else visual-odometry points
     int inliers = 0;
   };
-  std::optional<OdometryPose> trackWithOdometry(const map::Frame& frame) const;
+  std::optional<OdometryPose> trackWithOdometry(const map::Frame& frame, const map::Frame& last_frame) const;
   // tracking.depth_odometry_max_s: the frame's pose from its depth aligned to last_frame_'s, from
   // the prediction; nothing when the alignment is refused (DepthAlignmentResult::accepted).
   std::optional<SE3> trackWithDepth(const map::Frame& frame, const SE3& predicted_T_c_w);
@@ -311,6 +314,7 @@ class Tracker {
   int maps_started_ = 0;
   int weak_poses_ = 0;
   int predicted_poses_ = 0;
+  int predicted_by_odometry_ = 0;
   int backfilled_poses_ = 0;
   int odometry_poses_ = 0;
   int depth_odometry_poses_ = 0;
@@ -326,6 +330,7 @@ class Tracker {
   // last_frame_'s depth prepared for alignment, when it was (the frame aligned last becomes the next one's reference).
   std::optional<std::pair<uint64_t, DepthPyramid>> last_depth_pyramid_;
   std::optional<Timestamp> depth_only_since_;     // first frame of the current run of depth-odometry poses
+  std::optional<map::Frame> last_predicted_;      // the previous frame, when it got a predicted pose
   std::optional<Relocaliser> relocaliser_;
 };
 

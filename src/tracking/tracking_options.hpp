@@ -50,7 +50,10 @@ struct TrackingOptions {
   bool compensate_depth_delay = true;
   // When tracking fails (people covering the view, a covered lens), frames up to this long after
   // the last tracked one get the constant-velocity prediction as their pose (report: "predicted"),
-  // and the motion model keeps looking where that prediction says; 0 = off.
+  // and the motion model keeps looking where that prediction says; 0 = off. From the second such
+  // frame on, the recorded pose follows the motion since the frame before, measured by odometry
+  // against it where it can be (report: "predicted_by_odometry"; the search still starts from the
+  // constant velocity).
   double predict_through_loss_s = 0.3;
   // While lost (after the prediction above, and when relocalisation found nothing), each frame is
   // also searched against the local map around the last tracked pose, with the full inlier bar:

@@ -412,6 +412,107 @@ TEST(TrackerOdometry, CarriesTrackingWhenTheMapGivesNoPoseAndRefusesADisagreeing
   }
 }
 
+// Marks the features outside columns [from, to) as masked (not usable).
+void keepOnlyColumns(map::Frame& frame, double from, double to) {
+  for (size_t i = 0; i < frame.features->size(); ++i) {
+    const double x = frame.features->uv[i].x();
+    if (x < from || x >= to) frame.status[i] = map::FeatureStatus::kDynamicMask;
+  }
+}
+
+// The camera moves at 0.3 m/s for kSpeedFrames frames, then stops dead; the map gives nothing from
+// then on, and odometry finds no static feature the lost frames share with the last tracked one
+// (frame 9 keeps its left columns, the later ones their right ones, 80 px apart). The lost frames
+// are predicted: the first by the bridge's constant velocity; each later one by odometry against
+// the predicted frame before it, which measures the stop. The bridge alone (odometry off) runs on
+// at 1 cm per frame.
+TEST(TrackerBridging, LaterPredictedFramesFollowOdometryAgainstThePredictedFrameBefore) {
+  constexpr int kLost = 4;
+  const double frame_s = 1.0 / baseOptions().camera.fps;
+  const SE3 T_w_start(sim::lookRotation(-45.0 * M_PI / 180, -35.0 * M_PI / 180, 0.0), Vec3(1.0, -0.5, 1.4));
+  Trajectory path;
+  for (int i = 0; i < kSpeedFrames + kLost; ++i)
+    path.push_back({1000.0 + i * frame_s,
+                    T_w_start * SE3(Mat3::Identity(), Vec3(0.01 * std::min(i, kSpeedFrames - 1), 0.0, 0.0))});
+  const auto expectedTcw = [&](int i) { return (path.front().T_w_c.inverse() * path[i].T_w_c).inverse(); };
+  for (const int min_inliers : {30, 0}) {
+    SCOPED_TRACE(min_inliers);
+    SystemOptions options = baseOptions();
+    options.tracking.odometry_min_inliers = min_inliers;
+    options.atlas.enabled = false;
+    Rig rig(options);
+    const double width = options.camera.width;
+    for (int i = 0; i < kSpeedFrames; ++i) {
+      map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
+      if (i == kSpeedFrames - 1) keepOnlyColumns(frame, 0, width / 2 - 40);
+      ASSERT_TRUE(rig.track(frame).tracked) << "frame " << i;
+    }
+    {
+      std::unique_lock lock(rig.map().mutex());
+      for (map::MapPoint* p : rig.map().points()) p->bad = true;
+    }
+    for (int i = kSpeedFrames; i < kSpeedFrames + kLost; ++i) {
+      map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
+      keepOnlyColumns(frame, width / 2 + 40, width);
+      const TrackOutcome outcome = rig.track(frame);
+      ASSERT_FALSE(outcome.tracked) << "frame " << i;
+      ASSERT_TRUE(outcome.predicted) << "frame " << i;
+      const double error_m = cameraDistance(frame.T_c_w, expectedTcw(i));
+      const double bridge_error_m = 0.01 * (i - kSpeedFrames + 1);  // the stop, missed
+      if (i == kSpeedFrames || min_inliers == 0)
+        EXPECT_NEAR(error_m, bridge_error_m, 0.003) << "frame " << i;
+      else
+        EXPECT_NEAR(error_m, 0.01, 0.003) << "frame " << i;  // the first frame's error, no more
+    }
+    EXPECT_EQ(rig.tracker().predictedByOdometry(), min_inliers > 0 ? kLost - 1 : 0);
+  }
+}
+
+// As above, but the camera jumps 15 cm in the frame after the first lost one (4.5 m/s): odometry
+// against the predicted frame before measures the jump, faster than tracking.max_speed_m_s allows
+// (a wrong consensus, as far as tracking can tell), so the bridge's step is taken instead; with a
+// limit above the jump, the odometry's.
+TEST(TrackerBridging, APredictedStepFasterThanTheSpeedLimitIsNotTakenFromOdometry) {
+  const double frame_s = 1.0 / baseOptions().camera.fps;
+  const SE3 T_w_start(sim::lookRotation(-45.0 * M_PI / 180, -35.0 * M_PI / 180, 0.0), Vec3(1.0, -0.5, 1.4));
+  Trajectory path;
+  for (int i = 0; i < kSpeedFrames + 2; ++i) {
+    const double x_m = 0.01 * i + (i == kSpeedFrames + 1 ? 0.15 : 0.0);
+    path.push_back({1000.0 + i * frame_s, T_w_start * SE3(Mat3::Identity(), Vec3(x_m, 0.0, 0.0))});
+  }
+  const auto expectedTcw = [&](int i) { return (path.front().T_w_c.inverse() * path[i].T_w_c).inverse(); };
+  for (const double max_speed : {3.0, 6.0}) {
+    SCOPED_TRACE(max_speed);
+    SystemOptions options = baseOptions();
+    options.tracking.max_speed_m_s = max_speed;
+    options.atlas.enabled = false;
+    Rig rig(options);
+    const double width = options.camera.width;
+    for (int i = 0; i < kSpeedFrames; ++i) {
+      map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
+      if (i == kSpeedFrames - 1) keepOnlyColumns(frame, 0, width / 2 - 40);
+      ASSERT_TRUE(rig.track(frame).tracked) << "frame " << i;
+    }
+    {
+      std::unique_lock lock(rig.map().mutex());
+      for (map::MapPoint* p : rig.map().points()) p->bad = true;
+    }
+    for (int i = kSpeedFrames; i < kSpeedFrames + 2; ++i) {
+      map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
+      keepOnlyColumns(frame, width / 2 + 40, width);
+      ASSERT_TRUE(rig.track(frame).predicted) << "frame " << i;
+      if (i == kSpeedFrames + 1) {
+        const double error_m = cameraDistance(frame.T_c_w, expectedTcw(i));
+        if (max_speed < 4.5)
+          EXPECT_NEAR(error_m, 0.15, 0.01);  // the bridge's 1 cm step
+        else
+          EXPECT_LT(error_m, 0.01);
+      }
+    }
+    EXPECT_EQ(rig.tracker().predictedByOdometry(), max_speed < 4.5 ? 0 : 1);
+  }
+}
+
 cv::Mat columnsMask(int width, int height, int from, int to);
 
 // Every tracked frame that moved makes a keyframe (pose-change criterion with no threshold).
