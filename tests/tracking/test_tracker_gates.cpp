@@ -420,6 +420,37 @@ void keepOnlyColumns(map::Frame& frame, double from, double to) {
   }
 }
 
+// The camera looking into a corner of the room, at frame i (30 Hz) moved x_m[i] along its own x.
+Trajectory sidewaysIntoTheCorner(const std::vector<double>& x_m) {
+  const double frame_s = 1.0 / baseOptions().camera.fps;
+  const SE3 T_w_start(sim::lookRotation(-45.0 * M_PI / 180, -35.0 * M_PI / 180, 0.0), Vec3(1.0, -0.5, 1.4));
+  Trajectory path;
+  for (size_t i = 0; i < x_m.size(); ++i)
+    path.push_back({1000.0 + static_cast<double>(i) * frame_s, T_w_start * SE3(Mat3::Identity(), Vec3(x_m[i], 0, 0))});
+  return path;
+}
+
+// Tracks the path's first kSpeedFrames frames, the last one keeping only its left columns, then
+// leaves the map nothing to give (every point bad).
+void trackThenEmptyTheMap(Rig& rig, const Trajectory& path) {
+  const double width = baseOptions().camera.width;
+  for (int i = 0; i < kSpeedFrames; ++i) {
+    map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
+    if (i == kSpeedFrames - 1) keepOnlyColumns(frame, 0, width / 2 - 40);
+    ASSERT_TRUE(rig.track(frame).tracked) << "frame " << i;
+  }
+  std::unique_lock lock(rig.map().mutex());
+  for (map::MapPoint* p : rig.map().points()) p->bad = true;
+}
+
+// Frame i of the path keeping only its right columns, 80 px right of the last tracked frame's.
+map::Frame renderRightColumns(const Rig& rig, const Trajectory& path, int i) {
+  const double width = baseOptions().camera.width;
+  map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
+  keepOnlyColumns(frame, width / 2 + 40, width);
+  return frame;
+}
+
 // The camera moves at 0.3 m/s for kSpeedFrames frames, then stops dead; the map gives nothing from
 // then on, and odometry finds no static feature the lost frames share with the last tracked one
 // (frame 9 keeps its left columns, the later ones their right ones, 80 px apart). The lost frames
@@ -428,12 +459,9 @@ void keepOnlyColumns(map::Frame& frame, double from, double to) {
 // at 1 cm per frame.
 TEST(TrackerBridging, LaterPredictedFramesFollowOdometryAgainstThePredictedFrameBefore) {
   constexpr int kLost = 4;
-  const double frame_s = 1.0 / baseOptions().camera.fps;
-  const SE3 T_w_start(sim::lookRotation(-45.0 * M_PI / 180, -35.0 * M_PI / 180, 0.0), Vec3(1.0, -0.5, 1.4));
-  Trajectory path;
-  for (int i = 0; i < kSpeedFrames + kLost; ++i)
-    path.push_back({1000.0 + i * frame_s,
-                    T_w_start * SE3(Mat3::Identity(), Vec3(0.01 * std::min(i, kSpeedFrames - 1), 0.0, 0.0))});
+  std::vector<double> x_m;
+  for (int i = 0; i < kSpeedFrames + kLost; ++i) x_m.push_back(0.01 * std::min(i, kSpeedFrames - 1));
+  const Trajectory path = sidewaysIntoTheCorner(x_m);
   const auto expectedTcw = [&](int i) { return (path.front().T_w_c.inverse() * path[i].T_w_c).inverse(); };
   for (const int min_inliers : {30, 0}) {
     SCOPED_TRACE(min_inliers);
@@ -441,19 +469,9 @@ TEST(TrackerBridging, LaterPredictedFramesFollowOdometryAgainstThePredictedFrame
     options.tracking.odometry_min_inliers = min_inliers;
     options.atlas.enabled = false;
     Rig rig(options);
-    const double width = options.camera.width;
-    for (int i = 0; i < kSpeedFrames; ++i) {
-      map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
-      if (i == kSpeedFrames - 1) keepOnlyColumns(frame, 0, width / 2 - 40);
-      ASSERT_TRUE(rig.track(frame).tracked) << "frame " << i;
-    }
-    {
-      std::unique_lock lock(rig.map().mutex());
-      for (map::MapPoint* p : rig.map().points()) p->bad = true;
-    }
+    ASSERT_NO_FATAL_FAILURE(trackThenEmptyTheMap(rig, path));
     for (int i = kSpeedFrames; i < kSpeedFrames + kLost; ++i) {
-      map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
-      keepOnlyColumns(frame, width / 2 + 40, width);
+      map::Frame frame = renderRightColumns(rig, path, i);
       const TrackOutcome outcome = rig.track(frame);
       ASSERT_FALSE(outcome.tracked) << "frame " << i;
       ASSERT_TRUE(outcome.predicted) << "frame " << i;
@@ -473,13 +491,9 @@ TEST(TrackerBridging, LaterPredictedFramesFollowOdometryAgainstThePredictedFrame
 // (a wrong consensus, as far as tracking can tell), so the bridge's step is taken instead; with a
 // limit above the jump, the odometry's.
 TEST(TrackerBridging, APredictedStepFasterThanTheSpeedLimitIsNotTakenFromOdometry) {
-  const double frame_s = 1.0 / baseOptions().camera.fps;
-  const SE3 T_w_start(sim::lookRotation(-45.0 * M_PI / 180, -35.0 * M_PI / 180, 0.0), Vec3(1.0, -0.5, 1.4));
-  Trajectory path;
-  for (int i = 0; i < kSpeedFrames + 2; ++i) {
-    const double x_m = 0.01 * i + (i == kSpeedFrames + 1 ? 0.15 : 0.0);
-    path.push_back({1000.0 + i * frame_s, T_w_start * SE3(Mat3::Identity(), Vec3(x_m, 0.0, 0.0))});
-  }
+  std::vector<double> x_m;
+  for (int i = 0; i < kSpeedFrames + 2; ++i) x_m.push_back(0.01 * i + (i == kSpeedFrames + 1 ? 0.15 : 0.0));
+  const Trajectory path = sidewaysIntoTheCorner(x_m);
   const auto expectedTcw = [&](int i) { return (path.front().T_w_c.inverse() * path[i].T_w_c).inverse(); };
   for (const double max_speed : {3.0, 6.0}) {
     SCOPED_TRACE(max_speed);
@@ -487,19 +501,9 @@ TEST(TrackerBridging, APredictedStepFasterThanTheSpeedLimitIsNotTakenFromOdometr
     options.tracking.max_speed_m_s = max_speed;
     options.atlas.enabled = false;
     Rig rig(options);
-    const double width = options.camera.width;
-    for (int i = 0; i < kSpeedFrames; ++i) {
-      map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
-      if (i == kSpeedFrames - 1) keepOnlyColumns(frame, 0, width / 2 - 40);
-      ASSERT_TRUE(rig.track(frame).tracked) << "frame " << i;
-    }
-    {
-      std::unique_lock lock(rig.map().mutex());
-      for (map::MapPoint* p : rig.map().points()) p->bad = true;
-    }
+    ASSERT_NO_FATAL_FAILURE(trackThenEmptyTheMap(rig, path));
     for (int i = kSpeedFrames; i < kSpeedFrames + 2; ++i) {
-      map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
-      keepOnlyColumns(frame, width / 2 + 40, width);
+      map::Frame frame = renderRightColumns(rig, path, i);
       ASSERT_TRUE(rig.track(frame).predicted) << "frame " << i;
       if (i == kSpeedFrames + 1) {
         const double error_m = cameraDistance(frame.T_c_w, expectedTcw(i));
