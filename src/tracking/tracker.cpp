@@ -264,7 +264,8 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   }
   bool depth_only = false;
   if (!ok && depth_pose) {
-    spdlog::debug("tracking: frame {} keeps its depth-odometry pose: the local map gave {} inliers", frame.id, inliers);
+    spdlog::debug("tracking: frame {} keeps its depth-odometry pose: the local map gave {} inliers", frame.id,
+                  inliers);
     frame.T_c_w = *depth_pose;
     frame.clearMatches();
     inliers = 0;
@@ -340,9 +341,8 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
       // bridge from the last tracked frame is what this frame's search and gates still use. A
       // sweep that speeds up or turns as the loss begins leaves the constant velocity behind (an
       // fr1_desk composite: 19 cm off after 10 frames, while odometry between consecutive frames
-      // found 68-100 inliers each).
-      // A step faster than tracking.max_speed_m_s came from a wrong consensus (a 25 cm jump in one
-      // frame on an fr1_desk composite): the bridge's step then.
+      // found 68-100 inliers each). A step faster than tracking.max_speed_m_s came from a wrong
+      // consensus (a 25 cm jump in one frame on another): the bridge's step then.
       if (previous_predicted && previous_predicted->id + 1 == frame.id) {
         const SE3 bridge_step = frame.T_c_w * bridgedPose(previous_predicted->timestamp).inverse();
         frame.T_c_w = bridge_step * previous_predicted->T_c_w;
@@ -350,7 +350,8 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
                                                      ? trackWithOdometry(frame, *previous_predicted)
                                                      : std::nullopt;
         const double step_s = std::max(frame.timestamp - previous_predicted->timestamp, 1.0 / 30.0);
-        if (step && (step->T_c_w.inverse().translation() - previous_predicted->T_c_w.inverse().translation()).norm() <=
+        const Vec3 previous_centre = previous_predicted->T_c_w.inverse().translation();
+        if (step && (step->T_c_w.inverse().translation() - previous_centre).norm() <=
                         options_.tracking.max_speed_m_s * step_s) {
           frame.T_c_w = step->T_c_w;
           ++predicted_by_odometry_;
