@@ -190,7 +190,6 @@ DepthAlignmentResult DepthAligner::align(const DepthPyramid& ref, const DepthPyr
   const double min_normal_cos = std::cos(options.max_normal_angle_deg * M_PI / 180.0);
   const SE3 T_ref_cur_guess = T_cur_ref_guess.inverse();
   SE3 T_ref_cur = T_ref_cur_guess;
-  Accumulated last;
   for (int l = top; l >= options.finest_level; --l) {
     const double max_distance = options.max_point_distance_m * static_cast<double>(1 << (l - options.finest_level));
     const int iterations = options.iterations[static_cast<size_t>(top - l)];
@@ -221,8 +220,8 @@ DepthAlignmentResult DepthAligner::align(const DepthPyramid& ref, const DepthPyr
   }
   // The pairs at the estimate, for the acceptance bounds.
   const size_t finest = static_cast<size_t>(options.finest_level);
-  last = associate(ref.levels[finest], cur.levels[finest], camera, T_ref_cur,
-                   options.max_point_distance_m, min_normal_cos, options.huber_m);
+  const Accumulated last = associate(ref.levels[finest], cur.levels[finest], camera, T_ref_cur,
+                                     options.max_point_distance_m, min_normal_cos, options.huber_m);
   result.T_cur_ref = T_ref_cur.inverse();
   result.correspondences = last.pairs;
   const int usable = cur.levels[finest].usable;

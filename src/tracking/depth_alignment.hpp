@@ -71,7 +71,6 @@ class DepthAligner {
   DepthPyramid prepare(const cv::Mat& depth, const cv::Mat& mask) const;
   // Aligns `cur` to `ref` from the guess T_cur_ref (the camera motion from ref to cur).
   DepthAlignmentResult align(const DepthPyramid& ref, const DepthPyramid& cur, const SE3& T_cur_ref_guess) const;
-  const DepthAlignmentOptions& options() const { return options_; }
 
  private:
   PinholeCamera camera_;

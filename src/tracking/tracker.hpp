@@ -327,7 +327,8 @@ class Tracker {
   Timestamp search_other_maps_until_ = 0;  // findInOtherMap() is tried up to this time
   std::optional<Timestamp> odometry_only_since_;  // first frame of the current run of odometry-only poses
   std::optional<DepthAligner> depth_aligner_;     // tracking.depth_odometry_max_s > 0
-  // last_frame_'s depth prepared for alignment, when it was (the frame aligned last becomes the next one's reference).
+  // last_frame_'s depth prepared for alignment, when it was (the frame aligned last becomes the
+  // next one's reference).
   std::optional<std::pair<uint64_t, DepthPyramid>> last_depth_pyramid_;
   std::optional<Timestamp> depth_only_since_;     // first frame of the current run of depth-odometry poses
   std::optional<map::Frame> last_predicted_;      // the previous frame, when it got a predicted pose

@@ -244,9 +244,6 @@ TEST(TrackerSpeedGate, AFrameFoundAgainInTheSameMapIsHeldToTheSpeedSinceTheLastT
 // ---------------------------------------------------------------------------------------------
 // Bridging a short loss (tracking.predict_through_loss_s)
 
-// The camera slides sideways 4 mm per frame, then 12 mm on the last tracked frame (as an
-// estimate pulled by walkers crossing just before a loss is). The covered frame after it gets the
-// average motion of the last 5 tracked frames, not the last step alone.
 // Frames 0..kSpeedFrames-1 of `path` tracked, then frame kSpeedFrames covered (bridged).
 void trackThenCover(Rig& rig, const Trajectory& path) {
   for (int i = 0; i < kSpeedFrames; ++i) {
@@ -257,6 +254,9 @@ void trackThenCover(Rig& rig, const Trajectory& path) {
   ASSERT_TRUE(rig.track(covered).predicted);
 }
 
+// The camera slides sideways 4 mm per frame, then 12 mm on the last tracked frame (as an
+// estimate pulled by walkers crossing just before a loss is). The covered frame after it gets the
+// average motion of the last 5 tracked frames, not the last step alone.
 TEST(TrackerBridging, ACoveredFrameGetsTheAverageMotionOfTheLastFiveTrackedFrames) {
   SystemOptions options = baseOptions();
   const double frame_s = 1.0 / options.camera.fps;
