@@ -285,6 +285,7 @@ class Tracker {
     SE3 T_c_w;
   };
   std::deque<RecentPose> recent_poses_;
+  SE3 bridgedPoseFrom(size_t last, Timestamp t) const;  // the bridge over recent_poses_[0..last]
   SE3 bridgedPose(Timestamp t) const;
   // tracking.max_acceleration_m_s2: the frame's pose is too far from bridgedPose().
   bool disagreesWithBridge(const map::Frame& frame) const;
