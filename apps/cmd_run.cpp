@@ -48,6 +48,7 @@
 #include "io/timing_summary.hpp"
 #include "plausibility/sequence_check.hpp"
 #include "report/maps_apart.hpp"
+#include "report/trajectory_check.hpp"
 #include "report/run_plots.hpp"
 
 namespace desslam::app {
@@ -574,6 +575,14 @@ int runSequence(const RunArgs& args) {
   // "with a pose" below counts them, so the user is told where they are.
   const std::optional<std::string> maps_apart = report::mapsApartWarning(report["statistics"]);
   if (maps_apart) report["warnings"].push_back(*maps_apart);
+  // Jumps in what the run hands over, which tracking's own gate cannot see (report/trajectory_check.hpp).
+  std::vector<report::WorldPose> world_poses;
+  for (const FramePose& p : slam.trajectoryAll())
+    world_poses.push_back({p.timestamp_s, p.T_w_c.topRightCorner<3, 1>(), p.world_map_id});
+  const report::FastSteps fast_steps = report::findFastSteps(std::move(world_poses), options.tracking.max_speed_m_s);
+  report["trajectory_check"] = report::toJson(fast_steps);
+  const std::optional<std::string> fast_steps_warning = report::fastStepsWarning(fast_steps);
+  if (fast_steps_warning) report["warnings"].push_back(*fast_steps_warning);
   const int code = error                          ? error.code
                    : interruption.interrupted()   ? exit_code::interrupted(interruption.signal)
                    : nothing_tracked              ? exit_code::kNothingTracked
@@ -613,6 +622,10 @@ int runSequence(const RunArgs& args) {
   if (maps_apart && !report_error) {
     std::cout.flush();  // after the summary, also when both streams go to one file
     std::fprintf(stderr, "warning: %s\n", maps_apart->c_str());
+  }
+  if (fast_steps_warning && !report_error) {
+    std::cout.flush();
+    std::fprintf(stderr, "warning: %s\n", fast_steps_warning->c_str());
   }
   if (error) std::fprintf(stderr, "error: %s\n", error.message.c_str());
   if (report_error) std::fprintf(stderr, "error: %s\n", report_error.message.c_str());

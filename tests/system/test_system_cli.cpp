@@ -129,6 +129,10 @@ TEST_F(DesslamCli, RunWritesTrajectoriesAndReport) {
   EXPECT_LT(report["ate"]["translation_m"]["rmse"].get<double>(), 0.005);
   ASSERT_TRUE(report.contains("rpe"));
   EXPECT_GT(report["rpe"]["pairs"].get<size_t>(), 0u);
+  // Every step between consecutive poses checked against the speed limit, none beyond it.
+  ASSERT_TRUE(report.contains("trajectory_check")) << report.dump(2);
+  EXPECT_EQ(report["trajectory_check"]["steps_checked"].get<size_t>(), camera.size() - 1);
+  EXPECT_EQ(report["trajectory_check"]["steps_faster_than_max_speed"].get<size_t>(), 0u);
 
   EXPECT_EQ(report["interrupted"], false);
   EXPECT_EQ(report["exit_code"], 0);
