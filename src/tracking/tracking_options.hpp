@@ -25,10 +25,10 @@ struct TrackingOptions {
   // predict_through_loss_s) the hand-held fr1_desk and fr1_xyz ground truth leaves the bridge by
   // at most 3 cm + a t^2 / 2 with a = 3.4 m/s^2 (0.145 m after 8 frames); 5 leaves a margin. A
   // camera found further away followed walkers whose features the masks missed (unchecked while
-  // lost); but where the last tracked frame itself left the motion before it by more than 3 cm,
-  // the bridge from the frame before it may vouch instead (Tracker::disagreesWithBridge). The
-  // same bound keeps a weak pose (20-29 local-map inliers) found after a loss. 0 = off
-  // (and weak poses within 3 cm of the prediction only).
+  // lost); but where one of the last two tracked frames left the motion before it by more than
+  // 3 cm, the bridge from the frame before that one may vouch instead
+  // (Tracker::disagreesWithBridge). The same bound keeps a weak pose (20-29 local-map inliers)
+  // found after a loss. 0 = off (and weak poses within 3 cm of the prediction only).
   double max_acceleration_m_s2 = 5.0;
   int max_frames_between_keyframes = 30;   // at most one second without a keyframe (at 30 Hz)
   int min_frames_between_keyframes = 0;
