@@ -48,8 +48,8 @@
 #include "io/timing_summary.hpp"
 #include "plausibility/sequence_check.hpp"
 #include "report/maps_apart.hpp"
-#include "report/trajectory_check.hpp"
 #include "report/run_plots.hpp"
+#include "report/trajectory_check.hpp"
 
 namespace desslam::app {
 namespace {

@@ -41,7 +41,7 @@ nlohmann::json toJson(const FastSteps& steps) {
 
 std::optional<std::string> fastStepsWarning(const FastSteps& steps) {
   if (steps.too_fast == 0) return std::nullopt;
-  char text[400];
+  char text[512];
   std::snprintf(text, sizeof text,
                 "%zu of %zu steps between consecutive poses in CameraTrajectory_all.txt imply a camera faster than "
                 "tracking.max_speed_m_s (%.1f m/s); the largest, %.3f m, ends at t = %.6f in map %d's world: one of "
