@@ -1180,14 +1180,18 @@ bool Tracker::disagreesWithBridge(const map::Frame& frame) const {
   // right poses after them (5-6 frames, 50-64 inliers each). Where one of the last two tracked
   // frames left the motion of the frames before it (by more than a weak pose may), a pose that
   // agrees with the bridge from the frame before that one, within the same bound, is accepted too.
+  // The bridge over the tracked frames up to `last`, from that one.
+  const auto bridgedFrom = [this](size_t last, Timestamp t) {
+    return recentMotion(last, t).value_or(SE3::identity()) * recent_poses_[last].T_c_w;
+  };
   bool refused = off_m > limit_m;
   for (size_t jumped = recent_poses_.size() - 1; refused && jumped + 2 >= recent_poses_.size(); --jumped) {
     const RecentPose& pose = recent_poses_[jumped];
     const double jump_m =
-        (pose.T_c_w.inverse().translation() - bridgedPoseFrom(jumped - 1, pose.timestamp).inverse().translation()).norm();
+        (pose.T_c_w.inverse().translation() - bridgedFrom(jumped - 1, pose.timestamp).inverse().translation()).norm();
     if (jump_m <= kWeakMaxDeviationM) continue;
     const double off_before_m =
-        (frame.T_c_w.inverse().translation() - bridgedPoseFrom(jumped - 1, frame.timestamp).inverse().translation()).norm();
+        (frame.T_c_w.inverse().translation() - bridgedFrom(jumped - 1, frame.timestamp).inverse().translation()).norm();
     spdlog::debug("tracking: frame {}: tracked frame at {:.3f} s left the motion before it by {:.3f} m; {:.3f} m from "
                   "the bridge from the frame before it", frame.id, pose.timestamp, jump_m, off_before_m);
     refused = off_before_m > limit_m;
@@ -1197,26 +1201,20 @@ bool Tracker::disagreesWithBridge(const map::Frame& frame) const {
   return refused;
 }
 
-SE3 Tracker::bridgedPoseFrom(size_t last, Timestamp t) const {
-  // Constant velocity over recent_poses_[0..last], from recent_poses_[last].
+std::optional<SE3> Tracker::recentMotion(size_t last, Timestamp t) const {
+  if (last == 0 || last >= recent_poses_.size()) return std::nullopt;
   const RecentPose& first = recent_poses_.front();
   const RecentPose& end = recent_poses_[last];
-  if (!(end.timestamp - first.timestamp > 1e-6)) return end.T_c_w;
+  if (!(end.timestamp - first.timestamp > 1e-6)) return std::nullopt;
   const SE3 motion = end.T_c_w * first.T_c_w.inverse();
-  return SE3::exp(motion.log() * ((t - end.timestamp) / (end.timestamp - first.timestamp))) * end.T_c_w;
+  return SE3::exp(motion.log() * ((t - end.timestamp) / (end.timestamp - first.timestamp)));
 }
 
 SE3 Tracker::bridgedPose(Timestamp t) const {
   // Constant velocity over the last kBridgeVelocityFrames tracked frames, from the last one.
-  const SE3 one_step = motionOver(t - last_frame_.timestamp) * last_frame_.T_c_w;
-  if (recent_poses_.size() < 2) return one_step;
-  const Timestamp t0 = recent_poses_.front().timestamp;
-  const Timestamp t1 = recent_poses_.back().timestamp;
-  const SE3& T0 = recent_poses_.front().T_c_w;
-  const SE3& T1 = recent_poses_.back().T_c_w;
-  if (!(t1 - t0 > 1e-6)) return one_step;
-  const SE3 motion = T1 * T0.inverse();
-  return SE3::exp(motion.log() * ((t - t1) / (t1 - t0))) * last_frame_.T_c_w;
+  if (!recent_poses_.empty())
+    if (const std::optional<SE3> motion = recentMotion(recent_poses_.size() - 1, t)) return *motion * last_frame_.T_c_w;
+  return motionOver(t - last_frame_.timestamp) * last_frame_.T_c_w;
 }
 
 SE3 Tracker::motionOver(double seconds) const {

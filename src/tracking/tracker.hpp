@@ -285,7 +285,9 @@ class Tracker {
     SE3 T_c_w;
   };
   std::deque<RecentPose> recent_poses_;
-  SE3 bridgedPoseFrom(size_t last, Timestamp t) const;  // the bridge over recent_poses_[0..last]
+  // The constant velocity over recent_poses_[0..last], as the motion from recent_poses_[last]'s time
+  // to t; none from fewer than two poses or no time between them.
+  std::optional<SE3> recentMotion(size_t last, Timestamp t) const;
   SE3 bridgedPose(Timestamp t) const;
   // tracking.max_acceleration_m_s2: the frame's pose is too far from bridgedPose().
   bool disagreesWithBridge(const map::Frame& frame) const;
