@@ -437,30 +437,23 @@ void LoopCloser::runGlobalBa(uint64_t newest_keyframe) {
 
 void LoopCloser::globalBa(uint64_t newest_keyframe) {
   const auto start = Clock::now();
-  optim::MapBaProblem problem;
-  {
-    std::shared_lock lock(map_.mutex());
-    const std::vector<map::Keyframe*> all = map_.keyframes();
-    // Each map of the atlas holds its own gauge: its origin keyframe stays fixed, as do the
-    // keyframes held where tracking put them (map::globalBaFixed).
-    const std::vector<bool> fixed = map::globalBaFixed(all);
-    problem = optim::buildMapBaProblem(all, fixed);
-  }
-  const std::vector<map::Keyframe*>& keyframes = problem.keyframes;
-  const std::vector<map::MapPoint*>& points = problem.points;
-  std::vector<optim::BaKeyframe>& ba_keyframes = problem.ba_keyframes;
-  std::vector<optim::BaPoint>& ba_points = problem.ba_points;
   {
     std::lock_guard s(stats_mutex_);
     ++stats_.global_ba_runs;
   }
-  bool finished = false;
-  if (ba_keyframes.size() >= 2 && !ba_points.empty()) {
-    optim::BundleAdjustmentOptions ba;
-    ba.bf = bf_;
-    ba.iterations = options_.loop.global_ba_iterations;
-    finished = optim::bundleAdjust(camera_, ba_keyframes, ba_points, problem.ba_observations, ba, &global_ba_abort_);
+  optim::BundleAdjustmentOptions ba;
+  ba.bf = bf_;
+  ba.iterations = options_.loop.global_ba_iterations;
+  const optim::GlobalBaSolve solve = optim::solveGlobalBa(map_, camera_, ba, &global_ba_abort_);
+  const std::vector<map::Keyframe*>& keyframes = solve.problem.keyframes;
+  const std::vector<map::MapPoint*>& points = solve.problem.points;
+  const std::vector<optim::BaKeyframe>& ba_keyframes = solve.problem.ba_keyframes;
+  const std::vector<optim::BaPoint>& ba_points = solve.problem.ba_points;
+  {
+    std::lock_guard s(stats_mutex_);
+    stats_.weak_keyframes_held += solve.weak_keyframes_held;
   }
+  const bool finished = solve.solved && solve.finished;
   if (finished && !global_ba_abort_) {
     std::lock_guard correction(correction_mutex_);
     PauseScope paused(pause_);

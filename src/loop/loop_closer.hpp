@@ -78,6 +78,7 @@ struct LoopClosingStats {
   size_t global_ba_runs = 0;
   size_t global_ba_applied = 0;
   size_t global_ba_aborted = 0;
+  size_t weak_keyframes_held = 0;  // by global BA (optim::solveGlobalBa)
   std::vector<double> correction_ms, pose_graph_ms, global_ba_ms;
   std::vector<ClosedLoop> closed;
   std::vector<MergedMaps> merges;

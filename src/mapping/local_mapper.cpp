@@ -27,10 +27,6 @@ constexpr int kFuseNeighbours = 10;
 constexpr int kFuseSecondNeighbours = 5;
 constexpr double kFuseRadius = 3.0;
 constexpr size_t kMaxLocalKeyframes = 25;
-// Farthest local BA may move a keyframe made at a weak pose (see localBundleAdjustment). A weak pose
-// lies within 3 cm of the motion prediction (tracking's bar for it); moved beyond 5 cm, the
-// keyframe's own new points, not the map, placed it. On 35 fr1 composite runs this acted in 7.
-constexpr double kMaxWeakKeyframeMoveM = 0.05;
 constexpr size_t kMaxFixedKeyframes = 30;
 
 // Observations weighted as in the ORB-SLAM2 paper's stereo/RGB-D case: one with depth counts
@@ -330,18 +326,16 @@ void LocalMapper::localBundleAdjustment(map::Keyframe* kf, const std::atomic<boo
 }
 
 bool LocalMapper::holdWeakKeyframesMovedFar(const optim::MapBaProblem& problem) {
-  bool held = false;
-  for (size_t i = 0; i < problem.keyframes.size(); ++i) {
-    map::Keyframe* k = problem.keyframes[i];
-    if (problem.ba_keyframes[i].fixed || !k->made_at_weak_pose || k->pose_held || k->bad) continue;
-    const double moved_m = (problem.ba_keyframes[i].T_c_w.inverse().translation() - k->center()).norm();
-    if (moved_m <= kMaxWeakKeyframeMoveM) continue;
-    spdlog::debug("mapping: keyframe {} (made at a weak pose) would move {:.3f} m in local BA: held", k->id, moved_m);
+  // On 35 fr1 composite runs this acted in 7.
+  const std::vector<map::Keyframe*> far =
+      optim::weakKeyframesMovedFar(problem, optim::kMaxWeakKeyframeMoveM, /*relative_to_parent=*/false);
+  for (map::Keyframe* k : far) {
+    spdlog::debug("mapping: keyframe {} (made at a weak pose) would move over {:.2f} m in local BA: held", k->id,
+                  optim::kMaxWeakKeyframeMoveM);
     k->pose_held = true;
     ++stats_.weak_keyframes_held;
-    held = true;
   }
-  return held;
+  return !far.empty();
 }
 
 void LocalMapper::cullRedundantKeyframes(map::Keyframe* kf) {

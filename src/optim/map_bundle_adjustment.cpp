@@ -15,6 +15,7 @@ MapBaProblem buildMapBaProblem(const std::vector<map::Keyframe*>& keyframes, con
     kf_index[keyframes[i]->id] = static_cast<int>(problem.keyframes.size());
     problem.keyframes.push_back(keyframes[i]);
     problem.ba_keyframes.push_back({keyframes[i]->T_c_w, fixed[i]});
+    problem.centres_before.push_back(keyframes[i]->center());
   }
   std::map<uint64_t, map::MapPoint*> unique_points;  // by id: a deterministic order
   for (size_t i = 0; i < problem.keyframes.size(); ++i) {
@@ -60,26 +61,64 @@ void applyMapBaResult(map::Map& map, const MapBaProblem& problem) {
   }
 }
 
+std::vector<map::Keyframe*> weakKeyframesMovedFar(const MapBaProblem& problem, double max_move_m,
+                                                  bool relative_to_parent) {
+  std::map<uint64_t, size_t> index;
+  for (size_t i = 0; i < problem.keyframes.size(); ++i) index[problem.keyframes[i]->id] = i;
+  const auto moved = [&](size_t i) {
+    return Vec3(problem.ba_keyframes[i].T_c_w.inverse().translation() - problem.centres_before[i]);
+  };
+  std::vector<map::Keyframe*> far;
+  for (size_t i = 0; i < problem.keyframes.size(); ++i) {
+    const map::Keyframe* k = problem.keyframes[i];
+    if (problem.ba_keyframes[i].fixed || !k->made_at_weak_pose || k->pose_held || k->bad) continue;
+    Vec3 move = moved(i);
+    if (relative_to_parent && k->parent != nullptr)
+      if (auto it = index.find(k->parent->id); it != index.end()) move -= moved(it->second);
+    if (move.norm() > max_move_m) far.push_back(problem.keyframes[i]);
+  }
+  return far;
+}
+
+GlobalBaSolve solveGlobalBa(map::Map& map, const PinholeCamera& camera, const BundleAdjustmentOptions& options,
+                            const std::atomic<bool>* abort) {
+  GlobalBaSolve result;
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    {
+      std::shared_lock lock(map.mutex());
+      const std::vector<map::Keyframe*> keyframes = map.keyframes();
+      // Each map of the atlas holds its own gauge: its origin keyframe stays fixed, as do the
+      // keyframes held where tracking put them (map::globalBaFixed).
+      result.problem = buildMapBaProblem(keyframes, map::globalBaFixed(keyframes));
+    }
+    MapBaProblem& problem = result.problem;
+    result.solved = problem.keyframes.size() >= 2 && !problem.points.empty();
+    if (!result.solved) return result;
+    result.finished = bundleAdjust(camera, problem.ba_keyframes, problem.ba_points, problem.ba_observations,
+                                   options, abort);
+    if (attempt > 0 || !result.finished) return result;
+    std::unique_lock lock(map.mutex());
+    const std::vector<map::Keyframe*> far = weakKeyframesMovedFar(problem, kMaxWeakKeyframeMoveM, true);
+    if (far.empty()) return result;
+    for (map::Keyframe* k : far) k->pose_held = true;
+    result.weak_keyframes_held += far.size();
+  }
+  return result;
+}
+
 GlobalBaResult globalBundleAdjustment(map::Map& map, const PinholeCamera& camera,
                                       const BundleAdjustmentOptions& options, const std::atomic<bool>* abort) {
   const auto start = std::chrono::steady_clock::now();
   GlobalBaResult result;
-  MapBaProblem problem;
-  {
-    std::shared_lock lock(map.mutex());
-    const std::vector<map::Keyframe*> keyframes = map.keyframes();
-    // Each map of the atlas holds its own gauge: its origin keyframe stays fixed, as do the
-    // keyframes held where tracking put them (map::globalBaFixed).
-    const std::vector<bool> fixed = map::globalBaFixed(keyframes);
-    problem = buildMapBaProblem(keyframes, fixed);
-  }
-  if (problem.keyframes.size() < 2) return result;
-  result.completed = bundleAdjust(camera, problem.ba_keyframes, problem.ba_points,
-                                         problem.ba_observations, options, abort);
+  const GlobalBaSolve solve = solveGlobalBa(map, camera, options, abort);
+  if (!solve.solved) return result;
+  const MapBaProblem& problem = solve.problem;
   {
     std::unique_lock lock(map.mutex());
     applyMapBaResult(map, problem);
   }
+  result.completed = solve.finished;
+  result.weak_keyframes_held = solve.weak_keyframes_held;
   result.keyframes = problem.keyframes.size();
   result.points = problem.points.size();
   result.observations = problem.ba_observations.size();

@@ -22,7 +22,14 @@ struct MapBaProblem {
   std::vector<BaKeyframe> ba_keyframes;
   std::vector<BaPoint> ba_points;
   std::vector<BaObservation> ba_observations;
+  std::vector<Vec3> centres_before;       // each keyframe's camera centre when the problem was built
 };
+
+// Farthest bundle adjustment may move a keyframe made at a weak pose (Keyframe::made_at_weak_pose:
+// few local-map inliers within 3 cm of the motion prediction). Moved further, its own new points,
+// not the map, placed it: local BA carried one 21 cm on an fr1_xyz composite, and a global BA after
+// a merge elsewhere carried one 16 cm on a fr1_desk composite, the frames tracked from it with it.
+constexpr double kMaxWeakKeyframeMoveM = 0.05;
 
 // keyframes[i] is held constant when fixed[i]. The points are those seen by the free keyframes;
 // each contributes its observations in every keyframe of the list (fixed ones anchor it).
@@ -34,15 +41,36 @@ MapBaProblem buildMapBaProblem(const std::vector<map::Keyframe*>& keyframes, con
 // points that went bad while the solve ran are left alone.
 void applyMapBaResult(map::Map& map, const MapBaProblem& problem);
 
+// The free keyframes made at a weak pose, not held, that the solved `problem` moves more than
+// max_move_m from problem.centres_before: by their own move (local BA, whose window keeps the map
+// around it fixed) or, with `relative_to_parent`, by their move less their spanning-tree parent's
+// where the parent is in the problem (global BA, which may shift whole stretches of a map).
+// Map lock held (shared is enough).
+std::vector<map::Keyframe*> weakKeyframesMovedFar(const MapBaProblem& problem, double max_move_m,
+                                                  bool relative_to_parent);
+
+// The global problem: every keyframe and point of the map; the origins and the held keyframes are
+// fixed (map::globalBaFixed). A keyframe made at a weak pose that the solve moves more than
+// kMaxWeakKeyframeMoveM relative to its parent is held where it is (Keyframe::pose_held) and the
+// problem is built and solved once more with it fixed. Takes the map lock shared to copy the
+// problem out (exclusively to hold keyframes); solves unlocked; the caller applies the result.
+struct GlobalBaSolve {
+  MapBaProblem problem;
+  bool solved = false;    // false: fewer than two keyframes or no point, nothing to apply
+  bool finished = false;  // the last solve ran to the end (not aborted)
+  size_t weak_keyframes_held = 0;
+};
+GlobalBaSolve solveGlobalBa(map::Map& map, const PinholeCamera& camera, const BundleAdjustmentOptions& options,
+                            const std::atomic<bool>* abort = nullptr);
+
 struct GlobalBaResult {
   size_t keyframes = 0, points = 0, observations = 0, outliers = 0;
   bool completed = false;  // false: aborted (the estimate reached so far was still applied)
+  size_t weak_keyframes_held = 0;  // see solveGlobalBa
   double seconds = 0;
 };
 
-// Every keyframe and point of the map; the origins and the held keyframes are fixed
-// (map::globalBaFixed). Takes the map lock shared to copy the problem out and exclusively to write
-// it back; solves unlocked.
+// solveGlobalBa, then applyMapBaResult under the exclusive map lock.
 GlobalBaResult globalBundleAdjustment(map::Map& map, const PinholeCamera& camera,
                                       const BundleAdjustmentOptions& options,
                                       const std::atomic<bool>* abort = nullptr);
