@@ -247,6 +247,14 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   };
   bool weak = false;
   if (attempted && !ok && weakButConsistent()) ok = weak = true;
+  if (weak)
+    spdlog::debug("tracking: frame {} weak pose: {} inliers, {:.3f} m from the prediction{}", frame.id, inliers,
+                  (frame.T_c_w.inverse().translation() - predicted_T_c_w.inverse().translation()).norm(),
+                  odometry ? fmt::format(", {:.3f} m from the odometry pose ({} inliers)",
+                                         (frame.T_c_w.inverse().translation() -
+                                          odometry->T_c_w.inverse().translation()).norm(),
+                                         odometry->inliers)
+                           : std::string());
   if (attempted && !ok && had_motion)
     spdlog::debug("tracking: frame {} local map: {} inliers, {:.3f} m and {:.2f} deg from the prediction", frame.id,
                   inliers, (frame.T_c_w.inverse().translation() - predicted_T_c_w.inverse().translation()).norm(),
