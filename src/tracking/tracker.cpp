@@ -247,7 +247,8 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   };
   bool weak = false;
   if (attempted && !ok && weakButConsistent()) ok = weak = true;
-  if (weak)
+  // should_log: the odometry part is formatted before spdlog could drop the line.
+  if (weak && spdlog::should_log(spdlog::level::debug))
     spdlog::debug("tracking: frame {} weak pose: {} inliers, {:.3f} m from the prediction{}", frame.id, inliers,
                   (frame.T_c_w.inverse().translation() - predicted_T_c_w.inverse().translation()).norm(),
                   odometry ? fmt::format(", {:.3f} m from the odometry pose ({} inliers)",
