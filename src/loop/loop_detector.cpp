@@ -141,6 +141,11 @@ std::optional<LoopMatch> LoopDetector::accept(const map::Keyframe* kf, std::opti
 
 std::optional<LoopMatch> LoopDetector::searchMergeAcrossMaps() {
   std::shared_lock lock(map_.mutex());
+  struct EndOfRun {
+    bool& flag;
+    explicit EndOfRun(bool& f) : flag(f) { flag = true; }
+    ~EndOfRun() { flag = false; }
+  } end_of_run(end_of_run_);
   std::map<int, std::vector<map::Keyframe*>> by_map;
   for (map::Keyframe* kf : map_.keyframes())
     if (!kf->bad) by_map[kf->map_id].push_back(kf);
@@ -177,11 +182,20 @@ std::optional<LoopMatch> LoopDetector::mergeFromEvidence(const map::Keyframe* kf
   for (const PointCorrespondence& c : fit.inliers) now.inliers.push_back({c.p_a, T_wmap_c * c.p_b, c.depth});
   RigidRansacOptions refit = ransacOptions(options_);
   refit.min_inliers = options_.min_loop_matches;
+  // At the end of a run pieces may agree within the looser bound, from keyframes further apart.
+  const double loose_m = atlas_.final_merge_agreement_m;
+  const double loose_separation_s = std::max(kMapTransformAgreementS, loose_m / kSlowWalkerSpeedMS);
+  const auto agree = [&](const MergeEvidence& e) {
+    const double apart_s = std::abs(now.timestamp - e.timestamp);
+    if (apart_s < kMapTransformAgreementS) return false;
+    if (mapTransformsAgree(e.T_wother_wmap, now.T_wother_wmap)) return true;
+    return end_of_run_ && apart_s >= loose_separation_s &&
+           mapTransformsAgree(e.T_wother_wmap, now.T_wother_wmap, loose_m, atlas_.final_merge_agreement_deg);
+  };
   for (const MergeEvidence& e : evidence_) {
     // Map ids that are still the same name the same worlds: a merged map's id goes away.
     if (e.map_id != now.map_id || e.other_map_id != now.other_map_id || e.keyframe_id == now.keyframe_id) continue;
-    if (std::abs(now.timestamp - e.timestamp) < kMapTransformAgreementS) continue;
-    if (!mapTransformsAgree(e.T_wother_wmap, now.T_wother_wmap)) continue;
+    if (!agree(e)) continue;
     // Both fits' inliers together must make a loop's worth of matches under one transform.
     std::vector<PointCorrespondence> both = now.inliers;
     both.insert(both.end(), e.inliers.begin(), e.inliers.end());
@@ -469,6 +483,12 @@ std::optional<LoopDetector::Fit> LoopDetector::verify(map::Keyframe* kf, map::Ke
       if (evidence_allowed) return fit;
       return std::nullopt;
     }
+    // At the end of a run, a fit its covisibles nearly confirm may still be merge evidence.
+    const int evidence_confirm_matches =
+        evidence_allowed && end_of_run_ && atlas_.final_merge_min_confirm_matches > 0
+            ? std::min(atlas_.final_merge_min_confirm_matches, options_.min_confirm_matches)
+            : options_.min_confirm_matches;
+    bool short_of_confirmation = false;
     for (map::Keyframe* nb : confirmers) {
       // The loop's transform carried to the neighbour through its pose relative to the keyframe.
       const SE3 T_w_nb = final_fit.T_a_b * kf->T_c_w * nb->T_w_c();
@@ -476,9 +496,16 @@ std::optional<LoopDetector::Fit> LoopDetector::verify(map::Keyframe* kf, map::Ke
       if (confirmed < options_.min_confirm_matches) {
         spdlog::debug("loop: keyframe {} candidate {}: covisible keyframe {} confirms {} of {} needed matches",
                       kf->id, candidate->id, nb->id, confirmed, options_.min_confirm_matches);
-        ++stats_.rejected_confirmation;
-        return rejected("confirmation", final_fit.inlier_count);
+        if (confirmed < evidence_confirm_matches) {
+          ++stats_.rejected_confirmation;
+          return rejected("confirmation", final_fit.inlier_count);
+        }
+        short_of_confirmation = true;
       }
+    }
+    if (short_of_confirmation) {
+      rejected("confirmation (merge evidence)", final_fit.inlier_count);
+      return fit;
     }
   }
   if (short_of_loop) {

@@ -66,9 +66,10 @@ class LoopDetector {
   std::optional<LoopMatch> detect(map::Keyframe* kf);
   // The end of a run: each keyframe of every map but the one with the most keyframes against the
   // other maps' keyframes its bag of words ranks best (kFinalMergeCandidates), each verified as a
-  // merge candidate online is (a confirmed fit, or two agreeing pieces of evidence), without the
-  // consistency over consecutive keyframes (step 3): online, a revisit that BoW ranks below other
-  // places never becomes a candidate. The first merge found, or nothing.
+  // merge candidate online is (a confirmed fit, or two agreeing pieces of evidence, with the
+  // evidence bars of atlas.final_merge_*), without the consistency over consecutive keyframes
+  // (step 3): online, a revisit that BoW ranks below other places never becomes a candidate. The
+  // first merge found, or nothing.
   std::optional<LoopMatch> searchMergeAcrossMaps();
   // A loop ending at keyframe `kf_id` was closed: detection pauses for
   // min_keyframes_between_loops keyframes and the consistency state starts over.
@@ -98,9 +99,9 @@ class LoopDetector {
   // stats; nothing otherwise. Map lock held (shared).
   std::optional<LoopMatch> accept(const map::Keyframe* kf, std::optional<Fit> fit);
   // A merge candidate's fit short of a loop's bars, with the evidence kept from earlier keyframes:
-  // when one of them agrees on the transform between the two maps (kMapTransformAgreement*) and
-  // the inliers of both, refitted together, reach loop.min_loop_matches, the merge; else the fit
-  // is kept as evidence. Map lock held (shared).
+  // when one of them agrees on the transform between the two maps (kMapTransformAgreement*; at the
+  // end of a run atlas.final_merge_agreement_*) and the inliers of both, refitted together, reach
+  // loop.min_loop_matches, the merge; else the fit is kept as evidence. Map lock held (shared).
   struct MergeEvidence {
     uint64_t keyframe_id = 0;
     Timestamp timestamp = 0;
@@ -123,6 +124,7 @@ class LoopDetector {
   place::KeyframeDatabase& database_;
   std::vector<ConsistentGroup> groups_;
   std::vector<MergeEvidence> evidence_;  // oldest first, at most kMaxMergeEvidence
+  bool end_of_run_ = false;  // within searchMergeAcrossMaps: the atlas.final_merge_* bars apply
   uint64_t last_loop_keyframe_ = 0;
   bool had_loop_ = false;
   LoopDetectionStats stats_;

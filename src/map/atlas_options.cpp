@@ -14,6 +14,9 @@ void AtlasOptions::validate() const {
   requireInRange(s, "merge_match_keyframes", merge_match_keyframes, 1, 100);
   requireInRange(s, "merge_evidence_min_inliers", merge_evidence_min_inliers, 0, 100000);
   requireInRange(s, "merge_evidence_ransac_inliers", merge_evidence_ransac_inliers, 3, 100000);
+  requireInRange(s, "final_merge_min_confirm_matches", final_merge_min_confirm_matches, 0, 100000);
+  requireInRange(s, "final_merge_agreement_m", final_merge_agreement_m, 0.0, 10.0);
+  requireInRange(s, "final_merge_agreement_deg", final_merge_agreement_deg, 0.0, 180.0);
 }
 
 }  // namespace desslam

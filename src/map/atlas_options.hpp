@@ -65,6 +65,21 @@ struct AtlasOptions {
   // before the final bundle adjustment. Online, a place seen again that BoW ranks below others for
   // two keyframes in a row never becomes a candidate.
   bool final_merge_search = true;
+  // That search's merge evidence (online merges keep the bars above): a fit whose keyframe's
+  // covisibles each confirm at least final_merge_min_confirm_matches of loop.min_confirm_matches
+  // is kept as evidence, and two pieces agree within final_merge_agreement_m / _deg. At the end
+  // both maps are complete and no tracking depends on the merge, which pose graph and global BA
+  // then settle; a map made in a crowd is bent by a few centimetres and degrees over its length
+  // (crowded fr1_desk composites: two keyframes of a 1 s side map fitted the main map 11-15 cm and
+  // 4-8 degrees apart, their covisibles confirming 14-19 of 20 matches), while fits to walkers or
+  // coincidences land metres and tens of degrees apart. Two pieces that agree only within these
+  // (not within the online 5 cm / 3 degrees) must come from keyframes at least
+  // final_merge_agreement_m / kSlowWalkerSpeedMS apart in time (0.3 s; online 0.15 s), so that a
+  // walker's motion between them exceeds the bound. final_merge_min_confirm_matches 0 = the
+  // online confirmation; 0.05 m / 3 degrees = the online agreement.
+  int final_merge_min_confirm_matches = 10;
+  double final_merge_agreement_m = 0.15;
+  double final_merge_agreement_deg = 8.0;
 
   static constexpr const char* kSection = "atlas";
   template <class V> void fields(V& v) {
@@ -77,6 +92,9 @@ struct AtlasOptions {
     v("merge_evidence_min_inliers", merge_evidence_min_inliers);
     v("merge_evidence_ransac_inliers", merge_evidence_ransac_inliers);
     v("final_merge_search", final_merge_search);
+    v("final_merge_min_confirm_matches", final_merge_min_confirm_matches);
+    v("final_merge_agreement_m", final_merge_agreement_m);
+    v("final_merge_agreement_deg", final_merge_agreement_deg);
   }
   void validate() const;
 };
@@ -88,11 +106,15 @@ struct AtlasOptions {
 inline constexpr double kMapTransformAgreementM = 0.05;
 inline constexpr double kMapTransformAgreementDeg = 3.0;
 inline constexpr double kMapTransformAgreementS = 0.15;
-// Whether two estimates of the same transform between two maps agree (the distance and angle above).
-inline bool mapTransformsAgree(const SE3& T_a, const SE3& T_b) {
+// Two such estimates agreeing within a looser bound (atlas.final_merge_agreement_m) must be taken
+// at least that bound over this speed apart: a walker at half a usual walking pace moves further.
+inline constexpr double kSlowWalkerSpeedMS = 0.5;
+// Whether two estimates of the same transform between two maps agree (by default the distance and
+// angle above).
+inline bool mapTransformsAgree(const SE3& T_a, const SE3& T_b, double max_m = kMapTransformAgreementM,
+                               double max_deg = kMapTransformAgreementDeg) {
   const SE3 difference = T_a.inverse() * T_b;
-  return difference.translation().norm() <= kMapTransformAgreementM &&
-         difference.rotationAngle() <= kMapTransformAgreementDeg * M_PI / 180;
+  return difference.translation().norm() <= max_m && difference.rotationAngle() <= max_deg * M_PI / 180;
 }
 
 }  // namespace desslam

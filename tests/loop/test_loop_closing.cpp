@@ -89,7 +89,11 @@ struct RunResult {
 // explains what its covisible neighbours see (the confirmation must refuse such merges).
 // kTwoMapsScattered: as kTwoMaps, but each keyframe of the second map is turned about its centre by
 // its own angle: each one's fit to the first lap gives another transform between the maps.
-enum class Mode { kNoLoopClosing, kInline, kThreads, kTwoMaps, kTwoMapsBadNeighbours, kTwoMapsScattered };
+// kTwoMapsBent: as kTwoMaps, but each keyframe of the second map lies kBendPerKeyframeM further
+// along x than the one before, as in a map tracked in a crowd: each keyframe's fit to the first lap
+// gives the transform between the maps kBendPerKeyframeM off its neighbour's.
+enum class Mode { kNoLoopClosing, kInline, kThreads, kTwoMaps, kTwoMapsBadNeighbours, kTwoMapsScattered, kTwoMapsBent };
+constexpr double kBendPerKeyframeM = 0.07;
 // T_wB_wA: where the first map's world lies in the second's.
 const SE3 kSecondMapWorld(Quat(Eigen::AngleAxisd(0.7, Vec3(0.2, 1.0, 0.1).normalized())), Vec3(0.8, -0.3, 1.5));
 
@@ -117,7 +121,9 @@ RunResult run(Mode mode, int confirm_keyframes = LoopOptions{}.confirm_keyframes
   // Odometry bias per keyframe step: 0.4 deg of yaw and 1 cm sideways.
   const bool bad_neighbours = mode == Mode::kTwoMapsBadNeighbours;
   const bool scattered = mode == Mode::kTwoMapsScattered;
-  const bool two_maps = mode == Mode::kTwoMaps || bad_neighbours || scattered;
+  const bool bent = mode == Mode::kTwoMapsBent;
+  const bool two_maps = mode == Mode::kTwoMaps || bad_neighbours || scattered || bent;
+  int second_map_keyframes = 0;
   const SE3 bias = two_maps ? SE3() : SE3(Quat(Eigen::AngleAxisd(0.4 * kPi / 180, Vec3::UnitY())), Vec3(0.01, 0.0, 0.0));
   int map_id = 0;
   bool second_map_merged = false;
@@ -143,8 +149,13 @@ RunResult run(Mode mode, int confirm_keyframes = LoopOptions{}.confirm_keyframes
       if (second_lap && !second_map_merged) {
         T_w_c = kSecondMapWorld * r.T_w_c_true;
         if (bad_neighbours && k % 2 == 1) T_w_c = T_w_c * SE3(Quat::Identity(), Vec3(0.3, 0.0, 0.0));
-        if (scattered)  // turned about its centre by 7 degrees more per keyframe (43 keyframes: < 360)
-          T_w_c = T_w_c * SE3(Quat(Eigen::AngleAxisd(7.0 * kPi / 180 * static_cast<double>(k), Vec3::UnitY())), Vec3::Zero());
+        // Turned about its centre by 17 degrees more per keyframe: any two of the second lap's 21
+        // keyframes (20 x 17 < 360) disagree by more than even the end-of-run bar
+        // (atlas.final_merge_agreement_deg, 8).
+        if (scattered)
+          T_w_c = T_w_c * SE3(Quat(Eigen::AngleAxisd(17.0 * kPi / 180 * static_cast<double>(k), Vec3::UnitY())), Vec3::Zero());
+        if (bent) T_w_c = SE3(Quat::Identity(), Vec3(kBendPerKeyframeM * second_map_keyframes, 0.0, 0.0)) * T_w_c;
+        ++second_map_keyframes;
       } else if (k > 0) {
         // Odometry from the previous keyframe's present estimate (corrected, if a loop closed).
         const SE3 motion = rendered[k - 1].T_w_c_true.inverse() * r.T_w_c_true;
@@ -362,6 +373,61 @@ TEST(MapMerging, MapsStillApartAtTheEndAreSearchedAndMerged) {
   ASSERT_EQ(at_end.stats.merges.size(), 1u);
   EXPECT_EQ(at_end.stats.merges_at_end, 1u);
   expectOneWorldByTheKnownTransform(at_end);
+}
+
+// At the end of a run the search across maps accepts evidence that agrees within
+// atlas.final_merge_agreement_m (0.15 m): a bent second map, whose keyframes' fits to the first lap
+// lie 7 cm apart (online, two fits must agree within 5 cm), is merged then; with the online bar it
+// stays apart. No merge online here (a place must recur over 100 keyframes in a row), and only
+// evidence can merge (loop.min_loop_matches = 1000, no confirmation by covisibles).
+TEST(MapMerging, ABentMapIsMergedAtTheEndByFitsThatAgreeLoosely) {
+  const auto evidence_at_end_only = [](SystemOptions& o) {
+    o.atlas.merge_min_consistent_keyframes = 100;
+    o.loop.min_loop_matches = 1000;
+  };
+  const RunResult merged = run(Mode::kTwoMapsBent, 0, evidence_at_end_only);
+  const RunResult apart = run(Mode::kTwoMapsBent, 0, [&](SystemOptions& o) {
+    evidence_at_end_only(o);
+    o.atlas.final_merge_agreement_m = kMapTransformAgreementM;
+  });
+  std::printf("bent map: %zu merge(s) at the end (%zu fits kept as evidence); %zu with the online agreement bar (%zu)\n",
+              merged.stats.merges_at_end, merged.stats.detection.merge_evidence, apart.stats.merges.size(),
+              apart.stats.detection.merge_evidence);
+  EXPECT_GE(apart.stats.detection.merge_evidence, 2u) << "the first lap must be recognised for the test to mean anything";
+  EXPECT_EQ(apart.stats.merges.size(), 0u);
+  ASSERT_EQ(merged.stats.merges.size(), 1u);
+  EXPECT_EQ(merged.stats.merges_at_end, 1u);
+  // Moved by about the known transform: off by the bend of the keyframes that merged it at most.
+  const SE3 error = merged.stats.merges.front().T_into_from * kSecondMapWorld;
+  std::printf("transform error %.1f cm, %.2f deg\n", 100 * error.translation().norm(), error.rotationAngle() * 180 / kPi);
+  EXPECT_LT(error.rotationAngle() * 180 / kPi, 3.0);
+}
+
+// At the end of a run a fit that the keyframe's covisibles confirm only in part (each at least
+// atlas.final_merge_min_confirm_matches, 10, of loop.min_confirm_matches) is kept as merge evidence,
+// and two that agree merge the maps, by the right transform; with that bar off the confirmation
+// refuses every fit and the maps stay apart. Here no covisible can reach loop.min_confirm_matches
+// (set beyond any keyframe's points), and nothing merges online (a place must recur over 100
+// keyframes in a row).
+TEST(MapMerging, FitsTheCovisiblesConfirmInPartAreEvidenceAtTheEnd) {
+  const auto unconfirmable = [](SystemOptions& o) {
+    o.atlas.merge_min_consistent_keyframes = 100;
+    o.loop.min_confirm_matches = 100000;
+  };
+  const RunResult merged = run(Mode::kTwoMaps, LoopOptions{}.confirm_keyframes, unconfirmable);
+  const RunResult apart = run(Mode::kTwoMaps, LoopOptions{}.confirm_keyframes, [&](SystemOptions& o) {
+    unconfirmable(o);
+    o.atlas.final_merge_min_confirm_matches = 0;
+  });
+  std::printf("confirmed in part: %zu merge(s) at the end (%zu fits kept as evidence); %zu with the bar off (%zu "
+              "rejected by the confirmation)\n",
+              merged.stats.merges_at_end, merged.stats.detection.merge_evidence, apart.stats.merges.size(),
+              apart.stats.detection.rejected_confirmation);
+  EXPECT_GE(apart.stats.detection.rejected_confirmation, 1u) << "the first lap must be recognised for the test to mean anything";
+  EXPECT_EQ(apart.stats.merges.size(), 0u);
+  ASSERT_EQ(merged.stats.merges_at_end, 1u);
+  EXPECT_EQ(merged.stats.detection.merges_by_agreement, 1u);
+  expectOneWorldByTheKnownTransform(merged);
 }
 
 TEST(LoopOptions, ValidateNamesTheBadKey) {
