@@ -376,9 +376,10 @@ TEST(MapMerging, MapsStillApartAtTheEndAreSearchedAndMerged) {
 }
 
 // At the end of a run the search across maps accepts evidence that agrees within
-// atlas.final_merge_agreement_m (0.15 m): a bent second map, whose keyframes' fits to the first lap
-// lie 7 cm apart (online, two fits must agree within 5 cm), is merged then; with the online bar it
-// stays apart. No merge online here (a place must recur over 100 keyframes in a row), and only
+// atlas.final_merge_agreement_m (0.15 m) from keyframes at least 0.3 s apart: a bent second map,
+// whose keyframes' fits to the first lap lie 7 cm apart per keyframe (0.23 s; online, two fits must
+// agree within 5 cm), is merged then by fits two keyframes apart (14 cm, 0.47 s); with the online
+// bar it stays apart. No merge online here (a place must recur over 100 keyframes in a row), and only
 // evidence can merge (loop.min_loop_matches = 1000, no confirmation by covisibles).
 TEST(MapMerging, ABentMapIsMergedAtTheEndByFitsThatAgreeLoosely) {
   const auto evidence_at_end_only = [](SystemOptions& o) {
