@@ -117,20 +117,20 @@ std::optional<LoopMatch> LoopDetector::detect(map::Keyframe* kf) {
     std::erase_if(candidates, [&](const map::Keyframe* c) { return c->map_id == kf->map_id; });
   stats_.consistent_candidates += candidates.size();
   for (map::Keyframe* candidate : candidates) {
-    if (std::optional<LoopMatch> match = accept(kf, verify(kf, candidate, encoding.features))) return match;
+    if (std::optional<LoopMatch> match = accept(kf, verify(kf, candidate, encoding.features, false), false)) return match;
     ++stats_.rejected_geometry;
   }
   return std::nullopt;
 }
 
-std::optional<LoopMatch> LoopDetector::accept(const map::Keyframe* kf, std::optional<Fit> fit) {
+std::optional<LoopMatch> LoopDetector::accept(const map::Keyframe* kf, std::optional<Fit> fit, bool end_of_run) {
   if (!fit) return std::nullopt;
   std::optional<LoopMatch> match;
   if (fit->confirmed) {
     match = std::move(fit->match);
     match->merge = match->loop->map_id != kf->map_id;
   } else {
-    match = mergeFromEvidence(kf, *fit);
+    match = mergeFromEvidence(kf, *fit, end_of_run);
     if (match) ++stats_.merges_by_agreement;
   }
   if (!match) return std::nullopt;
@@ -141,11 +141,6 @@ std::optional<LoopMatch> LoopDetector::accept(const map::Keyframe* kf, std::opti
 
 std::optional<LoopMatch> LoopDetector::searchMergeAcrossMaps() {
   std::shared_lock lock(map_.mutex());
-  struct EndOfRun {
-    bool& flag;
-    explicit EndOfRun(bool& f) : flag(f) { flag = true; }
-    ~EndOfRun() { flag = false; }
-  } end_of_run(end_of_run_);
   std::map<int, std::vector<map::Keyframe*>> by_map;
   for (map::Keyframe* kf : map_.keyframes())
     if (!kf->bad) by_map[kf->map_id].push_back(kf);
@@ -164,7 +159,7 @@ std::optional<LoopMatch> LoopDetector::searchMergeAcrossMaps() {
       const place::BowEncoding encoding = encodingOf(kf);
       for (const place::KeyframeCandidate& c : database_.query(encoding.bow, query)) {
         if (c.keyframe->bad || c.keyframe->map_id == kf->map_id) continue;
-        std::optional<LoopMatch> merge = accept(kf, verify(kf, c.keyframe, encoding.features));
+        std::optional<LoopMatch> merge = accept(kf, verify(kf, c.keyframe, encoding.features, true), true);
         if (!merge) continue;
         spdlog::debug("loop: end of run: keyframe {} (map {}) found in map {} ({} inliers)", kf->id, kf->map_id,
                       c.keyframe->map_id, merge->inliers);
@@ -175,7 +170,7 @@ std::optional<LoopMatch> LoopDetector::searchMergeAcrossMaps() {
   return std::nullopt;
 }
 
-std::optional<LoopMatch> LoopDetector::mergeFromEvidence(const map::Keyframe* kf, Fit& fit) {
+std::optional<LoopMatch> LoopDetector::mergeFromEvidence(const map::Keyframe* kf, Fit& fit, bool end_of_run) {
   const SE3 T_wmap_c = kf->T_w_c();
   MergeEvidence now{kf->id, kf->timestamp, kf->map_id, fit.match.loop->map_id, fit.match.T_w_c_corrected * kf->T_c_w, {}};
   now.inliers.reserve(fit.inliers.size());
@@ -189,7 +184,7 @@ std::optional<LoopMatch> LoopDetector::mergeFromEvidence(const map::Keyframe* kf
     const double apart_s = std::abs(now.timestamp - e.timestamp);
     if (apart_s < kMapTransformAgreementS) return false;
     if (mapTransformsAgree(e.T_wother_wmap, now.T_wother_wmap)) return true;
-    return end_of_run_ && apart_s >= loose_separation_s &&
+    return end_of_run && apart_s >= loose_separation_s &&
            mapTransformsAgree(e.T_wother_wmap, now.T_wother_wmap, loose_m, atlas_.final_merge_agreement_deg);
   };
   for (const MergeEvidence& e : evidence_) {
@@ -315,7 +310,7 @@ std::vector<map::Keyframe*> LoopDetector::consistentCandidates(map::Keyframe* kf
 }
 
 std::optional<LoopDetector::Fit> LoopDetector::verify(map::Keyframe* kf, map::Keyframe* candidate,
-                                                     const place::FeatureVector& kf_features) {
+                                                     const place::FeatureVector& kf_features, bool end_of_run) {
   if (candidate->bad) return std::nullopt;
   // A merge candidate may end as evidence (atlas.merge_evidence_min_inliers): lower bars on the way.
   const bool evidence_allowed = candidate->map_id != kf->map_id && atlas_.merge_evidence_min_inliers > 0;
@@ -485,7 +480,7 @@ std::optional<LoopDetector::Fit> LoopDetector::verify(map::Keyframe* kf, map::Ke
     }
     // At the end of a run, a fit its covisibles nearly confirm may still be merge evidence.
     const int evidence_confirm_matches =
-        evidence_allowed && end_of_run_ && atlas_.final_merge_min_confirm_matches > 0
+        evidence_allowed && end_of_run && atlas_.final_merge_min_confirm_matches > 0
             ? std::min(atlas_.final_merge_min_confirm_matches, options_.min_confirm_matches)
             : options_.min_confirm_matches;
     bool short_of_confirmation = false;

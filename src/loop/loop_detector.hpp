@@ -94,10 +94,12 @@ class LoopDetector {
     std::vector<PointCorrespondence> inliers;
     std::vector<int> inlier_features;
   };
-  std::optional<Fit> verify(map::Keyframe* kf, map::Keyframe* candidate, const place::FeatureVector& kf_features);
+  // end_of_run: called by searchMergeAcrossMaps, whose evidence bars are atlas.final_merge_*.
+  std::optional<Fit> verify(map::Keyframe* kf, map::Keyframe* candidate, const place::FeatureVector& kf_features,
+                            bool end_of_run);
   // The loop or merge a fit makes (confirmed, or merged from agreeing evidence), counted in the
   // stats; nothing otherwise. Map lock held (shared).
-  std::optional<LoopMatch> accept(const map::Keyframe* kf, std::optional<Fit> fit);
+  std::optional<LoopMatch> accept(const map::Keyframe* kf, std::optional<Fit> fit, bool end_of_run);
   // A merge candidate's fit short of a loop's bars, with the evidence kept from earlier keyframes:
   // when one of them agrees on the transform between the two maps (kMapTransformAgreement*; at the
   // end of a run atlas.final_merge_agreement_*) and the inliers of both, refitted together, reach
@@ -110,7 +112,7 @@ class LoopDetector {
     SE3 T_wother_wmap;
     std::vector<PointCorrespondence> inliers;  // p_a in the other map's world, p_b in this map's
   };
-  std::optional<LoopMatch> mergeFromEvidence(const map::Keyframe* kf, Fit& fit);
+  std::optional<LoopMatch> mergeFromEvidence(const map::Keyframe* kf, Fit& fit, bool end_of_run);
   // Features of `nb` that match one of `loop_points` where the pose T_w_nb projects it, with the
   // descriptor within max_descriptor_distance and nb's 3-D reading within the RANSAC tolerance.
   int confirmedMatches(map::Keyframe* nb, const SE3& T_w_nb, const std::vector<map::MapPoint*>& loop_points,
@@ -124,7 +126,6 @@ class LoopDetector {
   place::KeyframeDatabase& database_;
   std::vector<ConsistentGroup> groups_;
   std::vector<MergeEvidence> evidence_;  // oldest first, at most kMaxMergeEvidence
-  bool end_of_run_ = false;  // within searchMergeAcrossMaps: the atlas.final_merge_* bars apply
   uint64_t last_loop_keyframe_ = 0;
   bool had_loop_ = false;
   LoopDetectionStats stats_;
