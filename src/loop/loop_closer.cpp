@@ -377,6 +377,7 @@ bool LoopCloser::applyLoopCorrection(const LoopMatch& detected, uint64_t& newest
     current_correction = applyPoseGraph(graph, summary.usable, current, map_id, C);
   }
   detector_.loopClosed(current->id);
+  std::optional<MergedMaps> merged;  // this correction's merge, for the log line
   {
     std::lock_guard s(stats_mutex_);
     ++stats_.loops_closed;
@@ -386,17 +387,18 @@ bool LoopCloser::applyLoopCorrection(const LoopMatch& detected, uint64_t& newest
     stats_.pose_graph_ms.push_back(graph_ms);
     stats_.correction_ms.push_back(msSince(start));
     stats_.detection = detector_.stats();
-    // One line per correction: a run has a handful, and each moves the trajectory users evaluate.
-    if (detected.merge && !stats_.merges.empty()) {
-      const MergedMaps& m = stats_.merges.back();
-      spdlog::info("loop: map {} merged into map {} (keyframe {}, t {:.3f}, seen in keyframe {}, t {:.3f}; {} inliers{}), "
-                   "{} points fused", m.from_map, m.into_map, current->id, current->timestamp, loop->id,
-                   loop->timestamp, match.inliers, detected.from_tracking ? ", found by tracking" : "", fused);
-    } else {
-      spdlog::info("loop: closed at keyframe {} (t {:.3f}) with keyframe {} (t {:.3f}), map {}: {} inliers, correction "
-                   "{:.3f} m {:.2f} deg, {} points fused", current->id, current->timestamp, loop->id, loop->timestamp,
-                   map_id, match.inliers, C.translation().norm(), C.rotationAngle() * 180.0 / M_PI, fused);
-    }
+    if (detected.merge && !stats_.merges.empty()) merged = stats_.merges.back();
+  }
+  // One line per correction (outside the stats lock): a run has a handful, and each moves the
+  // trajectory users evaluate.
+  if (merged) {
+    spdlog::info("loop: map {} merged into map {} (keyframe {}, t {:.3f}, seen in keyframe {}, t {:.3f}; {} inliers{}), "
+                 "{} points fused", merged->from_map, merged->into_map, current->id, current->timestamp, loop->id,
+                 loop->timestamp, match.inliers, detected.from_tracking ? ", found by tracking" : "", fused);
+  } else {
+    spdlog::info("loop: closed at keyframe {} (t {:.3f}) with keyframe {} (t {:.3f}), map {}: {} inliers, correction "
+                 "{:.3f} m {:.2f} deg, {} points fused", current->id, current->timestamp, loop->id, loop->timestamp,
+                 map_id, match.inliers, C.translation().norm(), C.rotationAngle() * 180.0 / M_PI, fused);
   }
   notify({detected.merge ? LoopEvent::Kind::kMapsMerged : LoopEvent::Kind::kLoopCorrected, current->id, loop->id,
           current_correction * C});
