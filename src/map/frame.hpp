@@ -15,6 +15,10 @@
 namespace desslam::map {
 
 
+// Frame::map_verifiable values (0 = neither).
+inline constexpr uint8_t kMapVerifiable = 1;
+inline constexpr uint8_t kMapVerified = 2;
+
 struct FeatureMatch {
   MapPoint* point = nullptr;  // a map point, or
   bool has_vo_point = false;  // a temporary point from the previous frame's depth (visual odometry)
@@ -31,10 +35,19 @@ struct Frame {
   std::shared_ptr<const FeatureSet> features;
   cv::Mat depth;                      // CV_32F metres (shared with the caller, not copied)
   cv::Mat dynamic_mask;               // CV_8U dilated semantic mask (255 = possibly moving); may be empty
+  // The same before dilation and the growth of a late mask: where the network saw the people. Empty
+  // when unknown (then no masked feature counts as beside it).
+  cv::Mat undilated_mask;
   // A keyframe made from this frame maps nothing within this many pixels of dynamic_mask (a late
   // mask: the people may have moved out of it). Tracking still uses the features there. 0 = none.
   int mapping_margin_px = 0;
   std::vector<FeatureStatus> status;  // per feature
+  // Per feature (empty = none): masked features outside undilated_mask (in the ring that dilation
+  // and growth add) that stage 1 dropped only because their reference frame had no match for them
+  // (or no depth there), having depth themselves. The local-map search
+  // may still take one where a map point lies at its depth (Tracker::trackLocalMap): then it is
+  // static again, matched to that point, and marked kMapVerified.
+  std::vector<uint8_t> map_verifiable;
   std::vector<FeatureMatch> matches;  // per feature
   SE3 T_c_w;
   bool has_pose = false;

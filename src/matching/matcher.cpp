@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "feature/descriptor.hpp"
 
@@ -35,7 +36,10 @@ std::vector<bool> orientationConsistent(const std::vector<float>& angle_differen
 }
 
 int searchByProjection(map::Frame& frame, const PinholeCamera& camera,
-                       const std::vector<ProjectionCandidate>& candidates, const MatcherOptions& options) {
+                       const std::vector<ProjectionCandidate>& candidates, const MatcherOptions& options,
+                       const ProjectionSearchScope& scope) {
+  if (scope.eligible != nullptr && scope.eligible->size() != frame.features->size())
+    throw std::invalid_argument("searchByProjection: the eligible list must have one entry per feature");
   const map::FeatureSet& features = *frame.features;
   std::vector<int> matched_feature;
   std::vector<float> angle_diff;
@@ -49,7 +53,11 @@ int searchByProjection(map::Frame& frame, const PinholeCamera& camera,
     int best = std::numeric_limits<int>::max(), second = std::numeric_limits<int>::max();
     int best_index = -1;
     for (int i : area) {
-      if (!frame.usable(i) || frame.matches[i].matched()) continue;
+      const bool eligible = scope.eligible != nullptr ? (*scope.eligible)[i] != 0 : frame.usable(i);
+      if (!eligible || frame.matches[i].matched()) continue;
+      if (scope.max_relative_depth_residual > 0 &&
+          (!features.hasDepth(i) || std::abs(1.0 - p_c.z() / features.depth[i]) > scope.max_relative_depth_residual))
+        continue;
       if (features.hasDepth(i)) {
         // Depth must agree as well: compare virtual disparities, in pixels like the window.
         const double disparity_error = std::abs(camera.bf() / p_c.z() - camera.bf() / features.depth[i]);

@@ -23,11 +23,21 @@ struct ProjectionCandidate {
   float angle = -1;                  // keypoint angle (deg) of the source, < 0 if none
 };
 
+// Which of a frame's features a projection search may match.
+struct ProjectionSearchScope {
+  // Per feature, nonzero = may be matched. Null: the frame's usable (static) features.
+  const std::vector<uint8_t>* eligible = nullptr;
+  // > 0: a feature needs depth, and |1 - z_point / z_feature| at most this, where z_point is the
+  // candidate's depth in the frame (the stage-1 residual against a map point instead of a frame).
+  double max_relative_depth_residual = 0;
+};
+
 // Projects each candidate with frame.T_c_w and takes the closest descriptor among the frame's
-// usable, still unmatched features in the window. Writes frame.matches. Returns the count.
-// Only reads candidates' precomputed data: no lock needed.
+// eligible (by default: usable), still unmatched features in the window. Writes frame.matches.
+// Returns the count. Only reads candidates' precomputed data: no lock needed.
 int searchByProjection(map::Frame& frame, const PinholeCamera& camera,
-                       const std::vector<ProjectionCandidate>& candidates, const MatcherOptions& options);
+                       const std::vector<ProjectionCandidate>& candidates, const MatcherOptions& options,
+                       const ProjectionSearchScope& scope = {});
 
 // Brute-force matching of features `a_indices` of set a against `b_indices` of set b with a ratio
 // test and mutual uniqueness; `accept(ia, ib)` may reject on geometry (e.g. epipolar).

@@ -114,8 +114,9 @@ void SlamSystem::rethrowWorkerFailure() {
 
 cv::Mat SlamSystem::maskFor(uint64_t frame_id, const std::shared_ptr<const cv::Mat>& bgr,
                             const std::string& image_name, const std::vector<cv::KeyPoint>& keypoints,
-                            FrameStats& stats) {
+                            FrameStats& stats, cv::Mat& undilated) {
   last_labels_ = cv::Mat();
+  undilated = cv::Mat();
   if (!semantic_) return {};
   const auto wait_start = std::chrono::steady_clock::now();
   std::shared_ptr<const semantic::Segmentation> result;
@@ -179,6 +180,7 @@ cv::Mat SlamSystem::maskFor(uint64_t frame_id, const std::shared_ptr<const cv::M
     }
   }
   if (mask.empty()) return {};
+  undilated = mask;
   const DynamicOptions& d = options_.dynamic;
   const int growth = std::min(std::max(0, stats.mask_age) * d.carried_mask_growth_px, d.carried_mask_max_growth_px);
   dynamic::GrownMask grown = dynamic::dilateMaskLeavingFeatures(mask, keypoints, d.mask_dilation_px, growth,
@@ -217,7 +219,8 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   if (tracksFlow() && semantic_) mask_propagator_.addFrame(frame_id, gray);
   stats.extraction_ms = millisecondsSince(start);
 
-  const cv::Mat dynamic_mask = maskFor(frame_id, shared_bgr, image_name, keypoints, stats);
+  cv::Mat undilated_mask;
+  const cv::Mat dynamic_mask = maskFor(frame_id, shared_bgr, image_name, keypoints, stats, undilated_mask);
   if (!dynamic_mask.empty()) {
     const auto topup_start = std::chrono::steady_clock::now();
     // While tracking, dynamic.min_features_outside_mask features of any kind keep the track. Lost
@@ -240,6 +243,7 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   frame.depth = depth;
   frame.depth_time_offset = depth_time_offset;
   frame.dynamic_mask = dynamic_mask;
+  frame.undilated_mask = undilated_mask;
   if (!dynamic_mask.empty()) frame.mapping_margin_px = options_.dynamic.mapping_margin_px;
   stats.features = static_cast<int>(frame.features->size());
   for (size_t i = 0; i < frame.features->size(); ++i) stats.features_with_depth += frame.features->hasDepth(i) ? 1 : 0;
@@ -265,6 +269,7 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   stats.stage1_checked = outcome.stage1_checked;
   stats.stage1_removed = outcome.stage1_removed;
   stats.free_space_removed = outcome.free_space_removed;
+  stats.map_verified = outcome.map_verified;
   stats.stage2_removed = outcome.stage2_removed;
   stats.inliers = outcome.inliers;
   stats.motion_model = outcome.used_motion_model;
@@ -646,7 +651,8 @@ nlohmann::json closedLoopsJson(const std::vector<loop::ClosedLoop>& loops) {
 nlohmann::json SlamSystem::statistics() const {
   std::vector<double> extraction, tracking, tracking_thread, total, mask_wait, segmentation;
   nlohmann::json per_frame = nlohmann::json::array();
-  long in_mask = 0, semantic_removed = 0, stage1_checked = 0, stage1_removed = 0, stage2_removed = 0, added = 0, free_space = 0;
+  long in_mask = 0, semantic_removed = 0, stage1_checked = 0, stage1_removed = 0, stage2_removed = 0, added = 0, free_space = 0,
+       map_verified = 0;
   size_t fresh_masks = 0, carried_masks = 0, no_mask = 0;
   for (const FrameStats& f : frames_) {
     extraction.push_back(f.extraction_ms);
@@ -663,6 +669,7 @@ nlohmann::json SlamSystem::statistics() const {
     stage2_removed += f.stage2_removed;
     added += f.features_added_outside_mask;
     free_space += f.free_space_removed;
+    map_verified += f.map_verified;
     if (f.mask_age == 0) ++fresh_masks;
     else if (f.mask_age > 0) ++carried_masks;
     else ++no_mask;
@@ -670,7 +677,7 @@ nlohmann::json SlamSystem::statistics() const {
                          {"stage1_checked", f.stage1_checked}, {"stage1_removed", f.stage1_removed},
                          {"stage2_removed", f.stage2_removed}, {"mask_age", f.mask_age}, {"mask_radius_px", f.mask_radius_px},
                          {"features_added_outside_mask", f.features_added_outside_mask},
-                         {"free_space_removed", f.free_space_removed},
+                         {"free_space_removed", f.free_space_removed}, {"stage1_map_verified", f.map_verified},
                          {"fresh_mask", f.mask_age == 0}, {"own_mask_waited", f.own_mask_waited},
                          {"segmentation_ms", f.segmentation_ms},
                          {"tracking_ms", f.extraction_ms + f.tracking_ms}, {"extraction_ms", f.extraction_ms},
@@ -727,6 +734,7 @@ nlohmann::json SlamSystem::statistics() const {
                   {"stage1_checked", stage1_checked},
                   {"removed_stage1", stage1_removed},
                   {"removed_stage1_free_space", free_space},
+                  {"stage1_map_verified", map_verified},
                   {"removed_stage2", stage2_removed},
                   {"frames_with_fresh_mask", fresh_masks},
                   {"frames_with_carried_mask", carried_masks},

@@ -89,6 +89,7 @@ struct FrameStats {
   int static_with_depth = 0;
   int features = 0, in_mask = 0, semantic_removed = 0, stage1_checked = 0, stage1_removed = 0, stage2_removed = 0;
   int free_space_removed = 0;  // of stage1_removed: the free-space test outside the mask
+  int map_verified = 0;        // of stage1_removed: taken back, a map point at their depth (dynamic.stage1_map_check)
   bool tracked = false;
   bool keyframe = false;
   int inliers = 0;            // map-point inliers after local-map tracking
@@ -166,10 +167,11 @@ class SlamSystem {
   const std::vector<FrameStats>& frameStats() const { return frames_; }
 
  private:
-  // The dilated mask of dynamic classes for this frame, and its provenance.
+  // The dilated mask of dynamic classes for this frame, and its provenance; `undilated` gets the
+  // mask before dilation and growth (carried and held as the dilated one).
   // bgr: the frame's image as handed to the semantic thread (for an own-mask request).
   cv::Mat maskFor(uint64_t frame_id, const std::shared_ptr<const cv::Mat>& bgr, const std::string& image_name,
-                  const std::vector<cv::KeyPoint>& keypoints, FrameStats& stats);
+                  const std::vector<cv::KeyPoint>& keypoints, FrameStats& stats, cv::Mat& undilated);
   // Local mapping's thread (or the caller when deterministic), before local mapping processes kf:
   // when the keyframe's own mask was requested, waits for it, and the features in it (dilated as
   // at the keyframe's creation) become dynamic; their points lose this observation.

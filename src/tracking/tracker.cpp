@@ -231,6 +231,8 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   int inliers = 0;
   const bool attempted = ok || use_prediction || search_last_pose;
   if (attempted) ok = trackLocalMap(frame, inliers);
+  outcome.map_verified = static_cast<int>(
+      std::count(frame.map_verifiable.begin(), frame.map_verifiable.end(), map::kMapVerified));
   // People covering most of the view may leave fewer static inliers than the usual bar. Such a
   // pose is kept when it agrees with the motion prediction: losing the track would cost far more
   // than a pose held by few points and the camera's own motion (counted as weak). After a loss the
@@ -1382,14 +1384,48 @@ bool Tracker::trackLocalMap(map::Frame& frame, int& inliers) {
     }
     // The search reads the candidates' map-point descriptors: keep the shared lock.
     matching::searchByProjection(frame, camera_, candidates, matcher_options_);
+    verifyMaskedFeaturesByMap(frame, candidates);
   }
   inliers = optimizeFramePose(frame);
+  // A masked feature the map vouched for but the pose does not fit (its match cleared as an
+  // outlier) goes back to being dropped.
+  for (size_t i = 0; i < frame.map_verifiable.size(); ++i) {
+    if (frame.map_verifiable[i] != map::kMapVerified || frame.matches[i].matched()) continue;
+    frame.map_verifiable[i] = 0;
+    frame.status[i] = map::FeatureStatus::kDynamicStage1;
+  }
   {
     std::shared_lock lock(map_.mutex());
     for (const map::FeatureMatch& m : frame.matches)
       if (m.point != nullptr && !m.point->bad) ++m.point->found;
   }
   return inliers >= kMinLocalMapInliers;
+}
+
+void Tracker::verifyMaskedFeaturesByMap(map::Frame& frame, const std::vector<matching::ProjectionCandidate>& candidates) {
+  if (std::find(frame.map_verifiable.begin(), frame.map_verifiable.end(), map::kMapVerifiable) ==
+      frame.map_verifiable.end())
+    return;
+  // The points no static feature took, searched for among those masked features alone.
+  std::vector<uint64_t> matched_ids;
+  for (const map::FeatureMatch& m : frame.matches)
+    if (m.point != nullptr) matched_ids.push_back(m.point->id);
+  std::sort(matched_ids.begin(), matched_ids.end());
+  std::vector<matching::ProjectionCandidate> rest;
+  for (const matching::ProjectionCandidate& c : candidates)
+    if (c.point != nullptr && !std::binary_search(matched_ids.begin(), matched_ids.end(), c.point->id))
+      rest.push_back(c);
+  std::vector<uint8_t> eligible(frame.map_verifiable.size(), 0);
+  for (size_t i = 0; i < eligible.size(); ++i) eligible[i] = frame.map_verifiable[i] == map::kMapVerifiable ? 1 : 0;
+  matching::ProjectionSearchScope scope;
+  scope.eligible = &eligible;
+  scope.max_relative_depth_residual = options_.dynamic.stage1_threshold;
+  matching::searchByProjection(frame, camera_, rest, matcher_options_, scope);
+  for (size_t i = 0; i < eligible.size(); ++i) {
+    if (!eligible[i] || frame.matches[i].point == nullptr) continue;
+    frame.map_verifiable[i] = map::kMapVerified;
+    frame.status[i] = map::FeatureStatus::kStatic;
+  }
 }
 
 bool Tracker::needKeyframe(const map::Frame& frame, int inliers, bool mapping_idle, int mapping_backlog) const {
@@ -1459,6 +1495,16 @@ void Tracker::applyStage1(map::Frame& frame, TrackOutcome& outcome) {
   if (input.mask != nullptr || geometric_only) {
     const dynamic::Stage1Result result = dynamic::runStage1(input, camera_, options_.dynamic);
     outcome.stage1_checked = result.in_mask_count;
+    spdlog::debug("stage 1: frame {} against frame {}: {} in the mask, {} consistent, {} dynamic, {} without depth, "
+                  "{} unmatched", frame.id, reference.id, result.in_mask_count, result.consistent_count,
+                  result.dynamic_count, result.no_depth_count, result.unmatched_count);
+    // Only in the ring dilation and growth add: a map point can be a person's (one the network
+    // missed while it was mapped), and it would vouch for the person's features.
+    const bool map_check = options_.dynamic.stage1_map_check && !geometric_only && !frame.undilated_mask.empty() &&
+                           options_.dynamic.stage1_unmatched_policy == UnmatchedPolicy::kDrop;
+    const std::vector<uint8_t> in_undilated =
+        map_check ? dynamic::featuresInMask(*frame.features, frame.undilated_mask) : std::vector<uint8_t>();
+    frame.map_verifiable.clear();
     for (size_t i = 0; i < frame.status.size(); ++i) {
       if (frame.status[i] != map::FeatureStatus::kPendingStage1 && frame.status[i] != map::FeatureStatus::kStatic)
         continue;
@@ -1466,6 +1512,12 @@ void Tracker::applyStage1(map::Frame& frame, TrackOutcome& outcome) {
         frame.status[i] = map::FeatureStatus::kDynamicStage1;
         frame.matches[i] = {};
         ++outcome.stage1_removed;
+        const dynamic::Stage1Outcome why = result.outcome[i];
+        if (map_check && !in_undilated[i] && frame.features->hasDepth(i) &&
+            (why == dynamic::Stage1Outcome::kUnmatched || why == dynamic::Stage1Outcome::kNoDepth)) {
+          if (frame.map_verifiable.empty()) frame.map_verifiable.assign(frame.status.size(), 0);
+          frame.map_verifiable[i] = map::kMapVerifiable;
+        }
       } else {
         frame.status[i] = map::FeatureStatus::kStatic;
       }

@@ -64,6 +64,7 @@ struct TrackOutcome {
   int stage1_checked = 0;   // features examined by stage 1 (in the mask, or all in geometric mode)
   int stage1_removed = 0;   // found dynamic by stage 1 (in the mask, plus the free-space test outside it)
   int free_space_removed = 0;  // of those, by the free-space test outside the mask
+  int map_verified = 0;        // of those, taken back: a map point at their depth vouched for them
   int stage2_removed = 0;   // found dynamic by stage 2 (their map points culled)
   map::Keyframe* new_keyframe = nullptr;  // to hand to local mapping
   int inliers = 0;                        // map-point inliers after local-map tracking
@@ -238,6 +239,10 @@ class Tracker {
   // When lost: the newest keyframes, one after another (relocalisation light).
   bool trackRecentKeyframes(map::Frame& frame);
   bool trackLocalMap(map::Frame& frame, int& inliers);
+  // Second local-map search: the candidates no static feature took, among the masked features
+  // stage 1 could not check (Frame::map_verifiable), at the point's depth (dynamic.stage1_map_check).
+  // Caller holds the map lock (shared).
+  void verifyMaskedFeaturesByMap(map::Frame& frame, const std::vector<matching::ProjectionCandidate>& candidates);
   // Stage 1: features in the mask (all features in geometric mode) whose depth disagrees with
   // the previous frame's, given the pose estimated without them, become dynamic.
   void applyStage1(map::Frame& frame, TrackOutcome& outcome);

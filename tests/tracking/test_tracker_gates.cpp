@@ -11,6 +11,8 @@
 //    more than 5 cm is held where tracking put it.
 //  - Frame::mapping_margin_px: a keyframe maps nothing within that many pixels of the dynamic
 //    mask, and is not made when fewer than 100 mappable features remain.
+//  - dynamic.stage1_map_check: a masked feature stage 1 found no match for in its reference frame
+//    is taken back when a map point lies there at its depth.
 // dynamic.mode "off": stage 1/2 leave the statuses alone, so the tests set them as they need.
 #include <cmath>
 #include <functional>
@@ -73,6 +75,19 @@ class Rig {
     const cv::Mat depth = rendered.depth * depth_scale;
     return desslam::test::frameFromImages(gray, depth, extractor_, pyramid_, camera_, options_.tracking, t, id,
                                           "scaled_" + std::to_string(id));
+  }
+
+  // The same view with the depth readings in columns [from, to) multiplied by depth_scale (the
+  // texture there carried nearer: a poster of the background in front of it).
+  map::Frame renderScaledDepthIn(const SE3& T_w_c, Timestamp t, uint64_t id, int from, int to,
+                                 double depth_scale) const {
+    const sim::RenderedFrame rendered = scene_.render(T_w_c, t);
+    cv::Mat gray;
+    cv::cvtColor(rendered.bgr, gray, cv::COLOR_BGR2GRAY);
+    cv::Mat depth = rendered.depth.clone();
+    depth.colRange(from, to) *= depth_scale;
+    return desslam::test::frameFromImages(gray, depth, extractor_, pyramid_, camera_, options_.tracking, t, id,
+                                          "scaled_in_" + std::to_string(id));
   }
 
   // The view with its texture gone (a black image: no feature), its depth still there.
@@ -1002,6 +1017,102 @@ TEST(TrackerDepthOdometry, StopsAfterItsLongestRun) {
   }
   EXPECT_EQ(by_depth, (std::vector<bool>{true, true, true, false, false}));
   EXPECT_EQ(rig.tracker().losses(), 1);
+}
+
+
+// ---------------------------------------------------------------------------------------------
+// Stage 1 against the map (dynamic.stage1_map_check)
+
+struct MapCheckResult {
+  TrackOutcome outcome;
+  int masked_with_depth = 0;  // frame 5's features with depth in the mask
+  int masked_inliers = 0;     // of those, inliers of its pose
+};
+
+// Mode full. Frames 0..4 of the sweep without a mask, then frame 5 with columns [0, to) masked,
+// of which [0, undilated_to) is where the network saw a person (the rest: dilation and the growth
+// of a late mask), the depth in the mask scaled by depth_scale_in_mask. Stage 1 finds no match in
+// its reference frame for any masked feature (a window of 1 px and descriptor distance 0: what a
+// frame 0.2 s back in a fast sweep gives for most of them), so all of them are dropped, unless the
+// map vouches for them.
+MapCheckResult runMapCheck(bool map_check, int to, double depth_scale_in_mask, int undilated_to) {
+  SystemOptions options = keyframeEveryFrameOptions();
+  options.dynamic.mode = DynamicMode::kFull;
+  options.dynamic.stage1_search_radius_px = 1.0;
+  options.dynamic.stage1_max_descriptor_distance = 0;
+  options.dynamic.stage1_map_check = map_check;
+  const Trajectory path = sim::sweepPath(kMarginFrames, options.camera.fps);
+  Rig rig(options);
+  for (int i = 0; i + 1 < kMarginFrames; ++i) {
+    map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
+    EXPECT_TRUE(rig.track(frame).tracked) << "frame " << i;
+  }
+  const int k = kMarginFrames - 1;
+  map::Frame frame = rig.renderScaledDepthIn(path[k].T_w_c, path[k].timestamp, static_cast<uint64_t>(k), 0, to,
+                                             depth_scale_in_mask);
+  frame.dynamic_mask = columnsMask(options.camera.width, options.camera.height, 0, to);
+  frame.undilated_mask = columnsMask(options.camera.width, options.camera.height, 0, undilated_to);
+  const map::FeatureSet& features = *frame.features;
+  std::vector<uint8_t> masked(features.size(), 0);
+  MapCheckResult r;
+  for (size_t i = 0; i < features.size(); ++i) {
+    if (distanceFromColumns(features.keypoints[i], 0, to) > 0.0) continue;
+    masked[i] = 1;
+    frame.status[i] = map::FeatureStatus::kPendingStage1;  // as SlamSystem marks them
+    r.masked_with_depth += features.hasDepth(i) ? 1 : 0;
+  }
+  r.outcome = rig.track(frame);
+  for (size_t i = 0; i < features.size(); ++i)
+    r.masked_inliers += masked[i] && frame.usable(i) && frame.matches[i].point != nullptr && !frame.matches[i].outlier;
+  return r;
+}
+
+// The mask covers all but the right 60 px of a static view, the network's own mask the left
+// 40 px of it: without the check only the strip tracks; with it the masked features in the ring
+// the map vouches for are inliers again.
+constexpr int kUndilatedTo = 40;
+
+TEST(TrackerStage1MapCheck, MaskedStaticFeaturesStage1CannotMatchAreTakenBackWhereTheMapHasThem) {
+  const MapCheckResult off = runMapCheck(false, kWideTo, 1.0, kUndilatedTo);
+  const MapCheckResult on = runMapCheck(true, kWideTo, 1.0, kUndilatedTo);
+  std::cout << "masked with depth " << on.masked_with_depth << "; inliers off " << off.outcome.inliers << ", on "
+            << on.outcome.inliers << " (" << on.outcome.map_verified << " taken back, " << on.masked_inliers
+            << " masked inliers)\n";
+  ASSERT_GE(on.masked_with_depth, 300) << "too few masked features for the test to mean anything";
+  EXPECT_EQ(off.outcome.map_verified, 0);
+  EXPECT_EQ(off.masked_inliers, 0);
+  EXPECT_GE(off.outcome.stage1_removed, off.masked_with_depth * 9 / 10);  // stage 1 matched (almost) none
+  ASSERT_TRUE(on.outcome.tracked);
+  EXPECT_GE(on.outcome.map_verified, 150) << "of " << on.masked_with_depth;
+  EXPECT_GE(on.masked_inliers, 150);
+  EXPECT_LE(on.masked_inliers, on.outcome.map_verified);
+  EXPECT_GE(on.outcome.inliers, off.outcome.inliers + 150);
+}
+
+// Where the network itself saw a person, the map does not vouch: a point there may be one of the
+// person's, mapped while the network missed them.
+TEST(TrackerStage1MapCheck, FeaturesInsideTheUndilatedMaskAreNotTakenBack) {
+  const MapCheckResult r = runMapCheck(true, kWideTo, 1.0, kWideTo);
+  ASSERT_GE(r.masked_with_depth, 300);
+  EXPECT_EQ(r.outcome.map_verified, 0);
+  EXPECT_EQ(r.masked_inliers, 0);
+}
+
+// The same texture 30 % nearer than the map has it (a poster of the background carried in front
+// of it): descriptors match the map points there, depths do not, so none is taken back; the
+// unmasked half tracks the frame.
+TEST(TrackerStage1MapCheck, AMaskedFeatureAtAnotherDepthThanTheMapPointIsNotTakenBack) {
+  const int half = sim::syntheticCamera().width / 2;
+  const MapCheckResult same_depth = runMapCheck(true, half, 1.0, 0);
+  ASSERT_GE(same_depth.outcome.map_verified, 50) << "the control: at the map's depth they are taken back";
+  const MapCheckResult nearer = runMapCheck(true, half, 0.7, 0);
+  std::cout << "taken back at the map's depth " << same_depth.outcome.map_verified << " of "
+            << same_depth.masked_with_depth << ", 30 % nearer " << nearer.outcome.map_verified << " of "
+            << nearer.masked_with_depth << "\n";
+  ASSERT_GE(nearer.masked_with_depth, 150);
+  EXPECT_TRUE(nearer.outcome.tracked);
+  EXPECT_EQ(nearer.outcome.map_verified, 0);
+  EXPECT_EQ(nearer.masked_inliers, 0);
 }
 
 }  // namespace
