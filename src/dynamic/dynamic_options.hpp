@@ -70,10 +70,10 @@ struct DynamicOptions {
   // them, "drop" treats them as dynamic. On a person moving towards the camera most features find
   // no trustworthy match (synthetic test: ~2/3), so "keep" leaves many of them in.
   UnmatchedPolicy stage1_unmatched_policy = UnmatchedPolicy::kDrop;
-  // Policy "drop" only: a masked feature outside the network's own mask (in the ring that
-  // mask_dilation_px and a late mask's growth add) dropped for want of a match in the reference
-  // frame (or of depth there) stays a candidate for the local-map search, which takes it only where
-  // a map point lies within stage1_threshold of its depth, at its appearance. A frame 0.2 s back matches few features in a fast sweep (h107 composite,
+  // Policy "drop" only: a masked feature in the ring a late mask's growth adds (beyond the
+  // network's mask dilated by mask_dilation_px) dropped for want of a match in the reference frame
+  // (or of depth there) stays a candidate for the local-map search, which takes it only where a
+  // map point lies within stage1_threshold of its depth, at its appearance. A frame 0.2 s back matches few features in a fast sweep (h107 composite,
   // 5-frame-old masks grown to 51 px: 60-70 % of the masked features unmatched, 3-7 % consistent),
   // so the static background a grown mask covers was lost to tracking.
   bool stage1_map_check = true;

@@ -35,15 +35,15 @@ struct Frame {
   std::shared_ptr<const FeatureSet> features;
   cv::Mat depth;                      // CV_32F metres (shared with the caller, not copied)
   cv::Mat dynamic_mask;               // CV_8U dilated semantic mask (255 = possibly moving); may be empty
-  // The same before dilation and the growth of a late mask: where the network saw the people. Empty
-  // when unknown (then no masked feature counts as beside it).
-  cv::Mat undilated_mask;
+  // The same without the growth of a late (carried) mask: dilated by dynamic.mask_dilation_px only.
+  // Equal to dynamic_mask for a fresh mask; empty when unknown (then no feature counts as grown over).
+  cv::Mat ungrown_mask;
   // A keyframe made from this frame maps nothing within this many pixels of dynamic_mask (a late
   // mask: the people may have moved out of it). Tracking still uses the features there. 0 = none.
   int mapping_margin_px = 0;
   std::vector<FeatureStatus> status;  // per feature
-  // Per feature (empty = none): masked features outside undilated_mask (in the ring that dilation
-  // and growth add) that stage 1 dropped only because their reference frame had no match for them
+  // Per feature (empty = none): masked features outside ungrown_mask (in the ring a late mask's
+  // growth adds) that stage 1 dropped only because their reference frame had no match for them
   // (or no depth there), having depth themselves. The local-map search
   // may still take one where a map point lies at its depth (Tracker::trackLocalMap): then it is
   // static again, matched to that point, and marked kMapVerified.

@@ -114,9 +114,9 @@ void SlamSystem::rethrowWorkerFailure() {
 
 cv::Mat SlamSystem::maskFor(uint64_t frame_id, const std::shared_ptr<const cv::Mat>& bgr,
                             const std::string& image_name, const std::vector<cv::KeyPoint>& keypoints,
-                            FrameStats& stats, cv::Mat& undilated) {
+                            FrameStats& stats, cv::Mat& ungrown) {
   last_labels_ = cv::Mat();
-  undilated = cv::Mat();
+  ungrown = cv::Mat();
   if (!semantic_) return {};
   const auto wait_start = std::chrono::steady_clock::now();
   std::shared_ptr<const semantic::Segmentation> result;
@@ -180,12 +180,12 @@ cv::Mat SlamSystem::maskFor(uint64_t frame_id, const std::shared_ptr<const cv::M
     }
   }
   if (mask.empty()) return {};
-  undilated = mask;
   const DynamicOptions& d = options_.dynamic;
   const int growth = std::min(std::max(0, stats.mask_age) * d.carried_mask_growth_px, d.carried_mask_max_growth_px);
   dynamic::GrownMask grown = dynamic::dilateMaskLeavingFeatures(mask, keypoints, d.mask_dilation_px, growth,
                                                                d.carried_mask_growth_px, d.carried_mask_min_outside_share);
   stats.mask_radius_px = grown.radius_px;
+  ungrown = grown.radius_px > d.mask_dilation_px ? dynamic::dilateMask(mask, d.mask_dilation_px) : grown.mask;
   return grown.mask;
 }
 
@@ -219,8 +219,8 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   if (tracksFlow() && semantic_) mask_propagator_.addFrame(frame_id, gray);
   stats.extraction_ms = millisecondsSince(start);
 
-  cv::Mat undilated_mask;
-  const cv::Mat dynamic_mask = maskFor(frame_id, shared_bgr, image_name, keypoints, stats, undilated_mask);
+  cv::Mat ungrown_mask;
+  const cv::Mat dynamic_mask = maskFor(frame_id, shared_bgr, image_name, keypoints, stats, ungrown_mask);
   if (!dynamic_mask.empty()) {
     const auto topup_start = std::chrono::steady_clock::now();
     // While tracking, dynamic.min_features_outside_mask features of any kind keep the track. Lost
@@ -243,7 +243,7 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
   frame.depth = depth;
   frame.depth_time_offset = depth_time_offset;
   frame.dynamic_mask = dynamic_mask;
-  frame.undilated_mask = undilated_mask;
+  frame.ungrown_mask = ungrown_mask;
   if (!dynamic_mask.empty()) frame.mapping_margin_px = options_.dynamic.mapping_margin_px;
   stats.features = static_cast<int>(frame.features->size());
   for (size_t i = 0; i < frame.features->size(); ++i) stats.features_with_depth += frame.features->hasDepth(i) ? 1 : 0;

@@ -167,11 +167,11 @@ class SlamSystem {
   const std::vector<FrameStats>& frameStats() const { return frames_; }
 
  private:
-  // The dilated mask of dynamic classes for this frame, and its provenance; `undilated` gets the
-  // mask before dilation and growth (carried and held as the dilated one).
+  // The dilated mask of dynamic classes for this frame, and its provenance; `ungrown` gets the
+  // same mask dilated by dynamic.mask_dilation_px alone, without a late mask's growth.
   // bgr: the frame's image as handed to the semantic thread (for an own-mask request).
   cv::Mat maskFor(uint64_t frame_id, const std::shared_ptr<const cv::Mat>& bgr, const std::string& image_name,
-                  const std::vector<cv::KeyPoint>& keypoints, FrameStats& stats, cv::Mat& undilated);
+                  const std::vector<cv::KeyPoint>& keypoints, FrameStats& stats, cv::Mat& ungrown);
   // Local mapping's thread (or the caller when deterministic), before local mapping processes kf:
   // when the keyframe's own mask was requested, waits for it, and the features in it (dilated as
   // at the keyframe's creation) become dynamic; their points lose this observation.

@@ -1498,12 +1498,13 @@ void Tracker::applyStage1(map::Frame& frame, TrackOutcome& outcome) {
     spdlog::debug("stage 1: frame {} against frame {}: {} in the mask, {} consistent, {} dynamic, {} without depth, "
                   "{} unmatched", frame.id, reference.id, result.in_mask_count, result.consistent_count,
                   result.dynamic_count, result.no_depth_count, result.unmatched_count);
-    // Only in the ring dilation and growth add: a map point can be a person's (one the network
-    // missed while it was mapped), and it would vouch for the person's features.
-    const bool map_check = options_.dynamic.stage1_map_check && !geometric_only && !frame.undilated_mask.empty() &&
+    // Only in the ring a late mask's growth adds: inside the network's mask and its dilation a map
+    // point can be a person's (mapped while the network missed them; features on the silhouette)
+    // and would vouch for the person's features. A fresh mask has no such ring.
+    const bool map_check = options_.dynamic.stage1_map_check && !geometric_only && !frame.ungrown_mask.empty() &&
                            options_.dynamic.stage1_unmatched_policy == UnmatchedPolicy::kDrop;
-    const std::vector<uint8_t> in_undilated =
-        map_check ? dynamic::featuresInMask(*frame.features, frame.undilated_mask) : std::vector<uint8_t>();
+    const std::vector<uint8_t> in_ungrown =
+        map_check ? dynamic::featuresInMask(*frame.features, frame.ungrown_mask) : std::vector<uint8_t>();
     frame.map_verifiable.clear();
     for (size_t i = 0; i < frame.status.size(); ++i) {
       if (frame.status[i] != map::FeatureStatus::kPendingStage1 && frame.status[i] != map::FeatureStatus::kStatic)
@@ -1513,7 +1514,7 @@ void Tracker::applyStage1(map::Frame& frame, TrackOutcome& outcome) {
         frame.matches[i] = {};
         ++outcome.stage1_removed;
         const dynamic::Stage1Outcome why = result.outcome[i];
-        if (map_check && !in_undilated[i] && frame.features->hasDepth(i) &&
+        if (map_check && !in_ungrown[i] && frame.features->hasDepth(i) &&
             (why == dynamic::Stage1Outcome::kUnmatched || why == dynamic::Stage1Outcome::kNoDepth)) {
           if (frame.map_verifiable.empty()) frame.map_verifiable.assign(frame.status.size(), 0);
           frame.map_verifiable[i] = map::kMapVerifiable;

@@ -1030,12 +1030,12 @@ struct MapCheckResult {
 };
 
 // Mode full. Frames 0..4 of the sweep without a mask, then frame 5 with columns [0, to) masked,
-// of which [0, undilated_to) is where the network saw a person (the rest: dilation and the growth
-// of a late mask), the depth in the mask scaled by depth_scale_in_mask. Stage 1 finds no match in
+// of which [0, ungrown_to) is the network's mask with its dilation (the rest: the growth of a late
+// mask), the depth in the mask scaled by depth_scale_in_mask. Stage 1 finds no match in
 // its reference frame for any masked feature (a window of 1 px and descriptor distance 0: what a
 // frame 0.2 s back in a fast sweep gives for most of them), so all of them are dropped, unless the
 // map vouches for them.
-MapCheckResult runMapCheck(bool map_check, int to, double depth_scale_in_mask, int undilated_to) {
+MapCheckResult runMapCheck(bool map_check, int to, double depth_scale_in_mask, int ungrown_to) {
   SystemOptions options = keyframeEveryFrameOptions();
   options.dynamic.mode = DynamicMode::kFull;
   options.dynamic.stage1_search_radius_px = 1.0;
@@ -1051,7 +1051,7 @@ MapCheckResult runMapCheck(bool map_check, int to, double depth_scale_in_mask, i
   map::Frame frame = rig.renderScaledDepthIn(path[k].T_w_c, path[k].timestamp, static_cast<uint64_t>(k), 0, to,
                                              depth_scale_in_mask);
   frame.dynamic_mask = columnsMask(options.camera.width, options.camera.height, 0, to);
-  frame.undilated_mask = columnsMask(options.camera.width, options.camera.height, 0, undilated_to);
+  frame.ungrown_mask = columnsMask(options.camera.width, options.camera.height, 0, ungrown_to);
   const map::FeatureSet& features = *frame.features;
   std::vector<uint8_t> masked(features.size(), 0);
   MapCheckResult r;
@@ -1067,14 +1067,14 @@ MapCheckResult runMapCheck(bool map_check, int to, double depth_scale_in_mask, i
   return r;
 }
 
-// The mask covers all but the right 60 px of a static view, the network's own mask the left
-// 40 px of it: without the check only the strip tracks; with it the masked features in the ring
+// The late mask covers all but the right 60 px of a static view, the network's own (dilated) the
+// left 40 px of it: without the check only the strip tracks; with it the masked features in the ring
 // the map vouches for are inliers again.
-constexpr int kUndilatedTo = 40;
+constexpr int kUngrownTo = 40;
 
 TEST(TrackerStage1MapCheck, MaskedStaticFeaturesStage1CannotMatchAreTakenBackWhereTheMapHasThem) {
-  const MapCheckResult off = runMapCheck(false, kWideTo, 1.0, kUndilatedTo);
-  const MapCheckResult on = runMapCheck(true, kWideTo, 1.0, kUndilatedTo);
+  const MapCheckResult off = runMapCheck(false, kWideTo, 1.0, kUngrownTo);
+  const MapCheckResult on = runMapCheck(true, kWideTo, 1.0, kUngrownTo);
   std::cout << "masked with depth " << on.masked_with_depth << "; inliers off " << off.outcome.inliers << ", on "
             << on.outcome.inliers << " (" << on.outcome.map_verified << " taken back, " << on.masked_inliers
             << " masked inliers)\n";
@@ -1089,9 +1089,9 @@ TEST(TrackerStage1MapCheck, MaskedStaticFeaturesStage1CannotMatchAreTakenBackWhe
   EXPECT_GE(on.outcome.inliers, off.outcome.inliers + 150);
 }
 
-// Where the network itself saw a person, the map does not vouch: a point there may be one of the
-// person's, mapped while the network missed them.
-TEST(TrackerStage1MapCheck, FeaturesInsideTheUndilatedMaskAreNotTakenBack) {
+// Where the network itself saw a person (and its dilation: a fresh mask), the map does not vouch:
+// a point there may be one of the person's, mapped while the network missed them.
+TEST(TrackerStage1MapCheck, FeaturesInsideAFreshMaskAreNotTakenBack) {
   const MapCheckResult r = runMapCheck(true, kWideTo, 1.0, kWideTo);
   ASSERT_GE(r.masked_with_depth, 300);
   EXPECT_EQ(r.outcome.map_verified, 0);
