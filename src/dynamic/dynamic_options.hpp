@@ -73,9 +73,11 @@ struct DynamicOptions {
   // Policy "drop" only: a masked feature in the ring a late mask's growth adds (beyond the
   // network's mask dilated by mask_dilation_px) dropped for want of a match in the reference frame
   // (or of depth there) stays a candidate for the local-map search, which takes it only where a
-  // map point lies within stage1_threshold of its depth, at its appearance. A frame 0.2 s back matches few features in a fast sweep (h107 composite,
-  // 5-frame-old masks grown to 51 px: 60-70 % of the masked features unmatched, 3-7 % consistent),
-  // so the static background a grown mask covers was lost to tracking.
+  // map point lies within stage1_threshold of its depth, at its appearance. A frame 0.2 s back
+  // matches few features in a fast sweep (h107 composite, 5-frame-old masks grown to 51 px: 60-70 %
+  // of the masked features unmatched, 3-7 % consistent), so the static background a grown mask
+  // covers was lost to tracking. Inside the network's mask and its dilation a map point may be a
+  // person's (mapped while the network missed them), so not there.
   bool stage1_map_check = true;
   int stage2_keyframes = 5;  // at most this many co-visible keyframes vote per map point
   // Stage 1 compares frame k with the newest tracked frame at least this old (0: always k-1).
@@ -115,7 +117,8 @@ struct DynamicOptions {
     v("stage1_search_radius_px", stage1_search_radius_px);
     v("stage1_max_descriptor_distance", stage1_max_descriptor_distance);
     v("stage1_match_ratio", stage1_match_ratio); v("stage1_unmatched_policy", stage1_unmatched_policy);
-    v("stage1_map_check", stage1_map_check); v("stage2_keyframes", stage2_keyframes); v("stage1_min_interval_s", stage1_min_interval_s);
+    v("stage1_map_check", stage1_map_check); v("stage2_keyframes", stage2_keyframes);
+    v("stage1_min_interval_s", stage1_min_interval_s);
     v("stage1_max_reprojection_px", stage1_max_reprojection_px);
     v("min_features_outside_mask", min_features_outside_mask);
     v("free_space_outside_mask", free_space_outside_mask); v("mask_hold_previous", mask_hold_previous);

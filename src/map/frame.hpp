@@ -44,9 +44,9 @@ struct Frame {
   std::vector<FeatureStatus> status;  // per feature
   // Per feature (empty = none): masked features outside ungrown_mask (in the ring a late mask's
   // growth adds) that stage 1 dropped only because their reference frame had no match for them
-  // (or no depth there), having depth themselves. The local-map search
-  // may still take one where a map point lies at its depth (Tracker::trackLocalMap): then it is
-  // static again, matched to that point, and marked kMapVerified.
+  // (or no depth there), having depth themselves. The local-map search may still take one where a
+  // map point lies at its depth (Tracker::trackLocalMap): then it is static again, matched to that
+  // point, and marked kMapVerified.
   std::vector<uint8_t> map_verifiable;
   std::vector<FeatureMatch> matches;  // per feature
   SE3 T_c_w;
