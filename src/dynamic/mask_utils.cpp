@@ -57,6 +57,8 @@ GrownMask dilateMaskLeavingFeatures(const cv::Mat& mask, const std::vector<cv::K
   GrownMask grown;
   grown.radius_px = base_px + growth;
   grown.mask = distance <= static_cast<float>(grown.radius_px) + 1e-3f;
+  // From the same distance map: a second dilation would cost another distance transform a frame.
+  grown.base_mask = growth > 0 ? cv::Mat(distance <= static_cast<float>(base_px) + 1e-3f) : grown.mask;
   return grown;
 }
 

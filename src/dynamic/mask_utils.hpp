@@ -19,9 +19,12 @@ cv::Mat dilateMask(const cv::Mat& mask, int radius_px);
 
 // A mask carried from an older frame is dilated by base_px + growth_px, where the growth shrinks
 // in steps of step_px (down to 0) until at least min_outside_share of the keypoints lie outside
-// the result (with none at all: growth 0). radius_px is the radius used.
+// the result (with none at all: growth 0). radius_px is the radius used; base_mask is the mask
+// dilated by base_px alone (what dilateMask(mask, base_px) gives; the same cv::Mat as mask when
+// nothing was added).
 struct GrownMask {
-  cv::Mat mask;  // 0/255
+  cv::Mat mask;       // 0/255
+  cv::Mat base_mask;  // 0/255
   int radius_px = 0;
 };
 GrownMask dilateMaskLeavingFeatures(const cv::Mat& mask, const std::vector<cv::KeyPoint>& keypoints, int base_px,

@@ -185,7 +185,7 @@ cv::Mat SlamSystem::maskFor(uint64_t frame_id, const std::shared_ptr<const cv::M
   dynamic::GrownMask grown = dynamic::dilateMaskLeavingFeatures(mask, keypoints, d.mask_dilation_px, growth,
                                                                d.carried_mask_growth_px, d.carried_mask_min_outside_share);
   stats.mask_radius_px = grown.radius_px;
-  ungrown = grown.radius_px > d.mask_dilation_px ? dynamic::dilateMask(mask, d.mask_dilation_px) : grown.mask;
+  ungrown = grown.base_mask;
   return grown.mask;
 }
 

@@ -49,6 +49,12 @@ TEST(DilateMaskLeavingFeatures, ShrinksTheGrowthUntilEnoughKeypointsAreOutside) 
   GrownMask kept = dilateMaskLeavingFeatures(mask, keypoints, 10, 30, 10, 0.0);
   EXPECT_EQ(kept.radius_px, 40);
   EXPECT_EQ(cv::countNonZero(kept.mask != dilateMask(mask, 40)), 0);
+  // The base dilation alone comes with it, grown or not (stage 1 tells the grown ring by it).
+  EXPECT_EQ(cv::countNonZero(kept.base_mask != dilateMask(mask, 10)), 0);
+  EXPECT_EQ(cv::countNonZero(shrunk.base_mask != dilateMask(mask, 10)), 0);
+  GrownMask ungrown = dilateMaskLeavingFeatures(mask, keypoints, 10, 0, 10, 0.3);
+  EXPECT_EQ(ungrown.radius_px, 10);
+  EXPECT_EQ(cv::countNonZero(ungrown.base_mask != ungrown.mask), 0);
   EXPECT_THROW(dilateMaskLeavingFeatures(mask, keypoints, -1, 30, 10, 0.3), InputError);
 }
 
