@@ -11,8 +11,8 @@
 // 1.3 ms with the base mask, 11 ms the earlier way, 1.3 ms the extra transform alone. Most of the
 // earlier way's extra time there is page faults (160 000 against 2 000 over a second of
 // iterations): a distance transform right after the growth has freed its buffers maps fresh
-// memory; in a whole run the allocator does not behave so (faults and wall time of 300 Bonn crowd
-// frames unchanged with glibc's trim and mmap thresholds raised), so count on the 1.3 ms.
+// memory. A whole run does not show that (300 Bonn crowd frames with emulated late masks: the same
+// minor faults either way), so count on the 1.3 ms.
 #include <vector>
 
 #include <benchmark/benchmark.h>
