@@ -714,12 +714,14 @@ std::vector<FrameRecord> Tracker::holdNearestPoses() {
     // A run of frames without a pose: i .. j-1, between records i-1 and j (where those exist).
     size_t j = i;
     while (j < records_.size() && records_[j].reference == nullptr) ++j;
+    // With a pose on both sides, every frame of the run gets one (tracking.hold_pose_between_poses).
+    const bool between_poses = i > 0 && j < records_.size() && options_.tracking.hold_pose_between_poses;
     for (size_t k = i; k < j; ++k) {
       const Timestamp t = records_[k].timestamp;
       const double since_before_s = i > 0 ? t - records_[i - 1].timestamp : max_s + 1;
       const double until_after_s = j < records_.size() ? records_[j].timestamp - t : max_s + 1;
       const bool from_before = since_before_s <= until_after_s;
-      if (!(std::min(since_before_s, until_after_s) <= max_s)) continue;
+      if (!between_poses && !(std::min(since_before_s, until_after_s) <= max_s)) continue;
       const FrameRecord& nearest = records_[from_before ? i - 1 : j];
       FrameRecord& r = records_[k];
       r.reference = nearest.reference;  // the same pose relative to the same keyframe: it follows that keyframe

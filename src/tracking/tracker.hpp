@@ -133,8 +133,9 @@ class Tracker {
   // Returns their new records.
   std::vector<FrameRecord> interpolateAcrossMerges();
   // The end of a run, after interpolateAcrossMerges(): frames still without a pose get the pose of
-  // the nearer frame with one (tracking.hold_pose_s). Returns their new records (source kPredicted
-  // when that frame is before them, kPredictedBackwards when after).
+  // the nearer frame with one (tracking.hold_pose_s; every such frame between two with one under
+  // tracking.hold_pose_between_poses). Returns their new records (source kPredicted when that frame
+  // is before them, kPredictedBackwards when after).
   std::vector<FrameRecord> holdNearestPoses();
   int heldPoses() const { return held_poses_; }  // frames given the nearer pose (tracking.hold_pose_s)
   int mapsStarted() const { return maps_started_; }           // maps of the atlas this tracker started

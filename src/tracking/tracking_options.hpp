@@ -114,6 +114,14 @@ struct TrackingOptions {
   // off, the velocity continued 9.0-22.3 cm. They still raise the ATE of the map they join
   // (0.0144 -> 0.0188 m with 3 such frames among 292). 0 = off: measured poses and the two predictions only.
   double hold_pose_s = 0.3;
+  // With hold_pose_s on: frames without a pose that have a frame with one on both sides get the
+  // nearer one's pose however long the gap, so that every frame from the first pose of a run to its
+  // last has one (hold_pose_s then bounds only the frames before the first pose and after the
+  // last, where the camera may be anywhere). Between two poses the camera went continuously from
+  // one to the other. A loss longer than both predictions and both holds (1.2 s) left frames
+  // without a pose on fr1_desk composites at 15 Hz (cd7: a crowd in the fast sweep, 1.3 s without
+  // a map to start in). false: hold_pose_s bounds every frame.
+  bool hold_pose_between_poses = true;
   // When the map does not give a pose (motion model, reference keyframe, relocalisation), the
   // frame's static features are matched by descriptor against the last tracked frame's
   // depth-backed ones (its map points, else its depth) within a window around the same pixel,
@@ -174,7 +182,7 @@ struct TrackingOptions {
     v("vo_check_min_map_inliers", vo_check_min_map_inliers); v("backfill_max_s", backfill_max_s);
     v("predict_back_s", predict_back_s);
     v("interpolate_predictions_within_s", interpolate_predictions_within_s);
-    v("hold_pose_s", hold_pose_s);
+    v("hold_pose_s", hold_pose_s); v("hold_pose_between_poses", hold_pose_between_poses);
     v("odometry_min_inliers", odometry_min_inliers);
     v("odometry_keyframe_after_s", odometry_keyframe_after_s);
     v("odometry_keyframe_max_masked_share", odometry_keyframe_max_masked_share);

@@ -585,43 +585,70 @@ TEST(SystemAtlas, CoveredFirstFramesBeyondTheBackwardPredictionHaveNoPoseWithout
   coveredFirstFramesBeyondTheBackwardPrediction(false);
 }
 
-// A cover of one second between two maps that stay apart (no merge: nothing to interpolate
-// between): the first frames of the cover get the prediction from before it, the last ones the
-// motion after it extrapolated backwards, and each frame between the two, beyond both horizons,
-// gets the pose of the nearer of the two, in its map (tracking.hold_pose_s).
-TEST(SystemAtlas, FramesBetweenTwoMapsBeyondBothPredictionsGetTheNearerPose) {
+// A cover between two maps that stay apart (no merge: nothing to interpolate between): the first
+// frames of the cover get the prediction from before it, the last ones the motion after it
+// extrapolated backwards, and each frame between the two, beyond both horizons, gets the pose of
+// the nearer of the two, in its map (tracking.hold_pose_s). A cover of one second lies within the
+// holds' reach (0.3 s on either side); one of two seconds does not, and its middle frames get a
+// pose only because they lie between two frames with one (tracking.hold_pose_between_poses).
+void framesBetweenTwoMapsBeyondBothPredictions(size_t cover_last, bool hold_between_poses) {
   SystemOptions options = test::syntheticSystemOptions();
   options.atlas.merge_min_consistent_keyframes = 100;
   options.atlas.other_map_search_s = 0;
   options.atlas.final_merge_search = false;
+  options.tracking.hold_pose_between_poses = hold_between_poses;
   const sim::SyntheticScene scene(sim::SceneOptions{}, options.camera);
   const Trajectory path = coverTurnAndComeBackPath(options.camera.fps);
-  const AtlasRun run = runAtlas(scene, path, options, coveredLens(kTurnCoverFirst, kTurnCoverLast), noFrameWithheld);
+  const AtlasRun run = runAtlas(scene, path, options, coveredLens(kTurnCoverFirst, cover_last), noFrameWithheld);
   const nlohmann::json& counts = run.statistics["counts"];
   const int forward = counts["predicted_poses"].get<int>();
   const int backwards = counts["backward_predicted_poses"].get<int>();
   const int held = counts["held_poses"].get<int>();
-  std::printf("1 s cover between two maps: %zu of %zu frames with a pose, predicted %d, predicted backwards %d, "
-              "held %d\n", run.all.size(), path.size(), forward, backwards, held);
+  std::printf("%.1f s cover between two maps, holding between poses %s: %zu of %zu frames with a pose, predicted %d, "
+              "predicted backwards %d, held %d\n",
+              (cover_last + 1 - kTurnCoverFirst) / options.camera.fps, hold_between_poses ? "on" : "off",
+              run.all.size(), path.size(), forward, backwards, held);
   ASSERT_EQ(liveMaps(run.statistics), 2u) << "the maps stay apart";
-  ASSERT_EQ(run.all.size(), path.size());
-  // The cover lasts longer than the two predictions' horizons together: the frames between them,
-  // first..last, get the last forward-predicted pose up to the middle and the first
-  // backward-predicted one after it.
-  ASSERT_GT(held, 1);
-  const size_t first = kTurnCoverFirst + forward, last = kTurnCoverLast - backwards;
-  ASSERT_EQ(last - first + 1, static_cast<size_t>(held));
+  // The frames beyond both predictions, first..last.
+  ASSERT_GT(forward, 0);
+  ASSERT_GT(backwards, 0);
+  const size_t first = kTurnCoverFirst + forward, last = cover_last - backwards;
+  ASSERT_GT(last, first);
   const AtlasPose* before = poseOf(run.all, path, first - 1);
   const AtlasPose* after = poseOf(run.all, path, last + 1);
   ASSERT_TRUE(before != nullptr && after != nullptr);
-  for (size_t i = first; i <= last; ++i) {
-    const bool nearer_before =
-        path[i].timestamp - path[first - 1].timestamp <= path[last + 1].timestamp - path[i].timestamp;
-    EXPECT_TRUE(samePose(poseOf(run.all, path, i), nearer_before ? before : after)) << "frame " << i;
-  }
   EXPECT_NE(before->map, after->map);
-  EXPECT_EQ(poseOf(run.all, path, first)->map, before->map);
-  EXPECT_EQ(poseOf(run.all, path, last)->map, after->map);
+  const double hold_s = options.tracking.hold_pose_s;
+  size_t beyond_holds = 0;
+  for (size_t i = first; i <= last; ++i) {
+    const double since_before_s = path[i].timestamp - path[first - 1].timestamp;
+    const double until_after_s = path[last + 1].timestamp - path[i].timestamp;
+    const bool within_hold = std::min(since_before_s, until_after_s) <= hold_s;  // as the tracker compares
+    beyond_holds += !within_hold;
+    const AtlasPose* pose = poseOf(run.all, path, i);
+    if (!within_hold && !hold_between_poses) {
+      EXPECT_EQ(pose, nullptr) << "frame " << i;
+      continue;
+    }
+    EXPECT_TRUE(samePose(pose, since_before_s <= until_after_s ? before : after)) << "frame " << i;
+  }
+  if (hold_between_poses) {
+    EXPECT_EQ(run.all.size(), path.size()) << "every frame has a pose";
+    EXPECT_EQ(static_cast<size_t>(held), last - first + 1);
+  } else {
+    EXPECT_EQ(run.all.size() + beyond_holds, path.size());
+    EXPECT_EQ(static_cast<size_t>(held) + beyond_holds, last - first + 1);
+  }
+  EXPECT_EQ(beyond_holds > 0, cover_last > kTurnCoverLast) << "only the longer cover outlasts the holds";
+}
+TEST(SystemAtlas, FramesBetweenTwoMapsBeyondBothPredictionsGetTheNearerPose) {
+  framesBetweenTwoMapsBeyondBothPredictions(kTurnCoverLast, true);
+}
+TEST(SystemAtlas, FramesOfALongCoverBetweenTwoMapsAllGetTheNearerPose) {
+  framesBetweenTwoMapsBeyondBothPredictions(kTurnCoverFirst + 59, true);
+}
+TEST(SystemAtlas, FramesOfALongCoverBeyondTheHoldsHaveNoPoseWithoutHoldingBetweenPoses) {
+  framesBetweenTwoMapsBeyondBothPredictions(kTurnCoverFirst + 59, false);
 }
 
 // As above, but the lens is uncovered for one frame only before it is covered again (people
