@@ -467,6 +467,7 @@ void LoopCloser::globalBa(uint64_t newest_keyframe) {
   {
     std::lock_guard s(stats_mutex_);
     stats_.weak_keyframes_held += solve.weak_keyframes_held;
+    stats_.loose_groups_held += solve.loose_groups_held;
   }
   const bool finished = solve.solved && solve.finished;
   if (finished && !global_ba_abort_) {

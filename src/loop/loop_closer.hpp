@@ -79,6 +79,7 @@ struct LoopClosingStats {
   size_t global_ba_applied = 0;
   size_t global_ba_aborted = 0;
   size_t weak_keyframes_held = 0;  // by global BA (optim::solveGlobalBa)
+  size_t loose_groups_held = 0;    // likewise, keyframe groups tied by few points (optim::looseGroupsMovedFar)
   std::vector<double> correction_ms, pose_graph_ms, global_ba_ms;
   std::vector<ClosedLoop> closed;
   std::vector<MergedMaps> merges;

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <map>
 #include <mutex>
+#include <set>
 #include <shared_mutex>
 
 namespace desslam::optim {
@@ -80,6 +81,64 @@ std::vector<map::Keyframe*> weakKeyframesMovedFar(const MapBaProblem& problem, d
   return far;
 }
 
+std::vector<map::Keyframe*> looseGroupsMovedFar(const MapBaProblem& problem, double max_move_m) {
+  const size_t n = problem.keyframes.size();
+  std::map<uint64_t, size_t> index;
+  for (size_t i = 0; i < n; ++i) index[problem.keyframes[i]->id] = i;
+  // Groups: keyframes joined by enough shared points (union-find over the covisibility links).
+  std::vector<size_t> group(n);
+  for (size_t i = 0; i < n; ++i) group[i] = i;
+  const auto root = [&](size_t i) {
+    while (group[i] != i) i = group[i] = group[group[i]];
+    return i;
+  };
+  for (size_t i = 0; i < n; ++i)
+    for (const auto& [id, entry] : problem.keyframes[i]->connection_weights)
+      if (auto it = index.find(id); it != index.end() && entry.second >= kMinGroupTiePoints)
+        group[root(i)] = root(it->second);
+  std::map<size_t, std::vector<size_t>> members;
+  for (size_t i = 0; i < n; ++i) members[root(i)].push_back(i);
+  const auto moved = [&](size_t i) {
+    return Vec3(problem.ba_keyframes[i].T_c_w.inverse().translation() - problem.centres_before[i]);
+  };
+  std::vector<map::Keyframe*> far;
+  for (const auto& [g, list] : members) {
+    if (list.size() == n) break;  // one group: the map's own gauge holds it
+    bool anchored = false;
+    Vec3 group_move = Vec3::Zero();
+    for (size_t i : list) {
+      anchored = anchored || problem.ba_keyframes[i].fixed;
+      group_move += moved(i);
+    }
+    if (anchored) continue;
+    group_move /= static_cast<double>(list.size());
+    // The distinct points tying the group to keyframes outside it, and where those keyframes went.
+    std::set<const map::MapPoint*> ties;
+    Vec3 outside_move = Vec3::Zero();
+    int outside_views = 0;
+    for (size_t i : list)
+      for (const map::MapPoint* p : problem.keyframes[i]->points) {
+        if (p == nullptr || p->bad || ties.count(p) != 0) continue;
+        bool tie = false;
+        for (const auto& [kid, obs] : p->observations)
+          if (auto it = index.find(kid); it != index.end() && root(it->second) != g) {
+            tie = true;
+            outside_move += moved(it->second);
+            ++outside_views;
+          }
+        if (tie) ties.insert(p);
+      }
+    if (static_cast<int>(ties.size()) >= kMinGroupTiePoints) continue;
+    if (outside_views > 0) outside_move /= static_cast<double>(outside_views);
+    if ((group_move - outside_move).norm() <= max_move_m) continue;
+    size_t oldest = list.front();
+    for (size_t i : list)
+      if (problem.keyframes[i]->id < problem.keyframes[oldest]->id) oldest = i;
+    far.push_back(problem.keyframes[oldest]);
+  }
+  return far;
+}
+
 GlobalBaSolve solveGlobalBa(map::Map& map, const PinholeCamera& camera, const BundleAdjustmentOptions& options,
                             const std::atomic<bool>* abort) {
   GlobalBaSolve result;
@@ -99,9 +158,12 @@ GlobalBaSolve solveGlobalBa(map::Map& map, const PinholeCamera& camera, const Bu
     if (attempt > 0 || !result.finished) return result;
     std::unique_lock lock(map.mutex());
     const std::vector<map::Keyframe*> far = weakKeyframesMovedFar(problem, kMaxWeakKeyframeMoveM, true);
-    if (far.empty()) return result;
+    const std::vector<map::Keyframe*> loose = looseGroupsMovedFar(problem, kMaxWeakKeyframeMoveM);
+    if (far.empty() && loose.empty()) return result;
     for (map::Keyframe* k : far) k->pose_held = true;
+    for (map::Keyframe* k : loose) k->pose_held = true;
     result.weak_keyframes_held += far.size();
+    result.loose_groups_held += loose.size();
   }
   return result;
 }
@@ -119,6 +181,7 @@ GlobalBaResult globalBundleAdjustment(map::Map& map, const PinholeCamera& camera
   }
   result.completed = solve.finished;
   result.weak_keyframes_held = solve.weak_keyframes_held;
+  result.loose_groups_held = solve.loose_groups_held;
   result.keyframes = problem.keyframes.size();
   result.points = problem.points.size();
   result.observations = problem.ba_observations.size();

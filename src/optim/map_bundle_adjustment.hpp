@@ -49,16 +49,33 @@ void applyMapBaResult(map::Map& map, const MapBaProblem& problem);
 std::vector<map::Keyframe*> weakKeyframesMovedFar(const MapBaProblem& problem, double max_move_m,
                                                   bool relative_to_parent);
 
+// Fewest distinct points that tie a group of keyframes to the rest of its map for global BA to
+// place the group by them. A group whose keyframes share fewer with every keyframe outside it
+// (the first keyframes of a map merged into another, linked to its later ones by 5 points on a
+// fr1_desk composite with frames dropped) holds no gauge of its own: global BA moves it as a
+// whole wherever those few points pull it (34.5 cm there, where the merge had placed it within
+// 6 cm). 20 is the bar a relocalised or merged pose needs in 3-D pairs.
+constexpr int kMinGroupTiePoints = 20;
+
+// The groups of free keyframes (joined by at least kMinGroupTiePoints shared points, through
+// Keyframe::connection_weights) that hold no fixed keyframe, are tied to the keyframes outside them
+// by fewer than kMinGroupTiePoints distinct points, and that the solved `problem` moves more than
+// max_move_m relative to the keyframes those points tie them to (or at all, with none): for each,
+// its oldest keyframe. Map lock held (shared is enough).
+std::vector<map::Keyframe*> looseGroupsMovedFar(const MapBaProblem& problem, double max_move_m);
+
 // The global problem: every keyframe and point of the map; the origins and the held keyframes are
 // fixed (map::globalBaFixed). A keyframe made at a weak pose that the solve moves more than
-// kMaxWeakKeyframeMoveM relative to its parent is held where it is (Keyframe::pose_held) and the
-// problem is built and solved once more with it fixed. Takes the map lock shared to copy the
+// kMaxWeakKeyframeMoveM relative to its parent, and the oldest keyframe of a loosely tied group the
+// solve moves that far (looseGroupsMovedFar), are held where they are (Keyframe::pose_held) and the
+// problem is built and solved once more with them fixed. Takes the map lock shared to copy the
 // problem out (exclusively to hold keyframes); solves unlocked; the caller applies the result.
 struct GlobalBaSolve {
   MapBaProblem problem;
   bool solved = false;    // false: fewer than two keyframes or no point, nothing to apply
   bool finished = false;  // the last solve ran to the end (not aborted)
   size_t weak_keyframes_held = 0;
+  size_t loose_groups_held = 0;
 };
 GlobalBaSolve solveGlobalBa(map::Map& map, const PinholeCamera& camera, const BundleAdjustmentOptions& options,
                             const std::atomic<bool>* abort = nullptr);
@@ -67,6 +84,7 @@ struct GlobalBaResult {
   size_t keyframes = 0, points = 0, observations = 0, outliers = 0;
   bool completed = false;  // false: aborted (the estimate reached so far was still applied)
   size_t weak_keyframes_held = 0;  // see solveGlobalBa
+  size_t loose_groups_held = 0;    // see solveGlobalBa
   double seconds = 0;
 };
 

@@ -776,6 +776,7 @@ nlohmann::json SlamSystem::statistics() const {
                          {"global_ba_applied", ls.global_ba_applied},
                          {"global_ba_aborted", ls.global_ba_aborted},
                          {"weak_keyframes_held", ls.weak_keyframes_held},
+                         {"loose_groups_held", ls.loose_groups_held},
                          {"keyframes_dropped", loop_thread_ ? loop_thread_->dropped() : 0},
                          {"closed", closedLoopsJson(ls.closed)},
                          {"timings_ms",
@@ -787,7 +788,8 @@ nlohmann::json SlamSystem::statistics() const {
     j["final_global_ba"] = {{"keyframes", final_ba_.keyframes}, {"points", final_ba_.points},
                             {"observations", final_ba_.observations}, {"outliers", final_ba_.outliers},
                             {"completed", final_ba_.completed},
-                            {"weak_keyframes_held", final_ba_.weak_keyframes_held}, {"seconds", final_ba_.seconds}};
+                            {"weak_keyframes_held", final_ba_.weak_keyframes_held},
+                            {"loose_groups_held", final_ba_.loose_groups_held}, {"seconds", final_ba_.seconds}};
   j["timings_ms"] = {{"orb_extraction", summarizeMilliseconds(extraction)},
                      {"mask_wait", summarizeMilliseconds(mask_wait)},
                      {"segmentation", summarizeMilliseconds(segmentation)},

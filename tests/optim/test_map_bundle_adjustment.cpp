@@ -8,6 +8,7 @@
 #include <mutex>
 #include <random>
 #include <shared_mutex>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -233,6 +234,67 @@ TEST(GlobalBundleAdjustment, AWeakKeyframeItWouldCarryFarIsHeld) {
       EXPECT_LT(translationError(s->keyframes[5]->T_c_w, s->true_T_c_w[5]), 0.005);
     }
     for (size_t k : {1u, 2u, 3u, 4u, 6u, 7u}) EXPECT_FALSE(s->keyframes[k]->pose_held) << "keyframe " << k;
+  }
+}
+
+// Keyframes 5-7 see their own points and share only `ties` of them with keyframes 0-4 (the
+// first keyframes of a map merged into another, tied to its later ones by a few points), and
+// start 15 cm beside where those few points put them, everything else consistent. Tied by 5
+// points, global BA holds the group where it is (looseGroupsMovedFar: a handful of points,
+// possibly a walker's matched by mistake, cannot place it); tied by 60, they join it to the map
+// and global BA places it.
+TEST(GlobalBundleAdjustment, AGroupTiedByFewPointsIsHeldWhereItIs) {
+  const PinholeCamera camera = test::tumCamera();
+  for (const int ties : {5, 60}) {
+    SCOPED_TRACE(std::to_string(ties) + " tie points");
+    auto s = makeMapScene(camera, 8, 600, 13);
+    const SE3 shift(Mat3::Identity(), Vec3(0.15, 0.0, 0.0));  // world-frame move of group B
+    const auto inGroupB = [](size_t k) { return k >= 5; };
+    std::vector<SE3> start(s->keyframes.size());
+    {
+      std::unique_lock lock(s->map.mutex());
+      if (s->outlier_point != nullptr) map::eraseObservation(s->map, s->outlier_point, s->outlier_keyframe);
+      int tied = 0;
+      for (size_t p = 0; p < s->points.size(); ++p) {
+        map::MapPoint* point = s->points[p];
+        if (point == nullptr || point->bad) continue;
+        bool seen_a = false, seen_b = false;
+        for (size_t k = 0; k < s->keyframes.size(); ++k)
+          if (point->observations.count(s->keyframes[k]->id) != 0) (inGroupB(k) ? seen_b : seen_a) = true;
+        if (seen_a && seen_b && tied < ties) {
+          ++tied;  // a tie: both groups keep seeing it, where group A puts it
+          point->position = s->true_points[p];
+          continue;
+        }
+        const bool of_b = p % 2 == 1;  // the others belong to one group only
+        for (size_t k = 0; k < s->keyframes.size(); ++k)
+          if (inGroupB(k) != of_b) map::eraseObservation(s->map, point, s->keyframes[k]);
+        if (!point->bad) point->position = of_b ? Vec3(shift * s->true_points[p]) : s->true_points[p];
+      }
+      ASSERT_EQ(tied, ties);
+      for (size_t k = 0; k < s->keyframes.size(); ++k) {
+        s->keyframes[k]->T_c_w = inGroupB(k) ? s->true_T_c_w[k] * shift.inverse() : s->true_T_c_w[k];
+        start[k] = s->keyframes[k]->T_c_w;
+      }
+      for (map::Keyframe* k : s->keyframes) map::updateConnections(k);
+    }
+    const GlobalBaResult result = globalBundleAdjustment(s->map, camera, BundleAdjustmentOptions{});
+    std::shared_lock lock(s->map.mutex());
+    EXPECT_TRUE(result.completed);
+    EXPECT_EQ(result.weak_keyframes_held, 0u);
+    EXPECT_EQ(result.loose_groups_held, ties < kMinGroupTiePoints ? 1u : 0u);
+    for (size_t k = 0; k < s->keyframes.size(); ++k) {
+      const double from_start_m = translationError(s->keyframes[k]->T_c_w, start[k]);
+      const double from_truth_m = translationError(s->keyframes[k]->T_c_w, s->true_T_c_w[k]);
+      if (!inGroupB(k)) {
+        EXPECT_LT(from_truth_m, 0.005) << "keyframe " << k;
+      } else if (ties < kMinGroupTiePoints) {
+        EXPECT_LT(from_start_m, 0.005) << "keyframe " << k << " stays where it was";
+      } else {
+        EXPECT_LT(from_truth_m, 0.005) << "keyframe " << k << " is placed by its ties";
+      }
+    }
+    EXPECT_EQ(s->keyframes[5]->pose_held, ties < kMinGroupTiePoints);
   }
 }
 
