@@ -50,11 +50,11 @@ std::vector<map::Keyframe*> weakKeyframesMovedFar(const MapBaProblem& problem, d
                                                   bool relative_to_parent);
 
 // Fewest distinct points that tie a group of keyframes to the rest of its map for global BA to
-// place the group by them. A group whose keyframes share fewer with every keyframe outside it
-// (the first keyframes of a map merged into another, linked to its later ones by 5 points on a
-// fr1_desk composite with frames dropped) holds no gauge of its own: global BA moves it as a
-// whole wherever those few points pull it (34.5 cm there, where the merge had placed it within
-// 6 cm). 20 is the bar a relocalised or merged pose needs in 3-D pairs.
+// place the group by them. A group whose keyframes share fewer points in all with the keyframes
+// outside it (the first keyframes of a map merged into another, linked to its later ones by 5
+// points on a fr1_desk composite with frames dropped) holds no gauge of its own: global BA moves
+// it as a whole wherever those few points pull it (34.5 cm there, where the merge had placed it
+// within 6 cm). 20 is the bar a loop or merge fit needs in RANSAC inliers (loop.min_rigid_inliers).
 constexpr int kMinGroupTiePoints = 20;
 
 // The groups of free keyframes (joined by at least kMinGroupTiePoints shared points, through
