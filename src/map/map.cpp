@@ -15,6 +15,7 @@ Keyframe* Map::createKeyframe(uint64_t frame_id, Timestamp timestamp, std::strin
                                        std::move(status), std::move(half_depth), T_c_w);
   Keyframe* raw = kf.get();
   raw->map_id = liveMap(map_id);
+  raw->made_in_map = raw->map_id;
   recordOf(raw->map_id);
   raw->map_origin = keyframes_created_per_map_[raw->map_id]++ == 0;
   keyframes_.emplace(id, std::move(kf));

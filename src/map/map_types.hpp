@@ -87,6 +87,7 @@ class Keyframe {
   SE3 T_c_parent;                                 // set when culled: its pose follows the parent's
   bool not_erase = false;                         // protected from culling (e.g. while loop closing uses it)
   int map_id = 0;                                 // atlas map it belongs to (merges relabel it)
+  int made_in_map = 0;                            // atlas map it was made in (merges keep it)
   bool map_origin = false;                        // first keyframe of its map: holds the gauge, never culled
   // Made at a frame-to-frame odometry pose while sharing too few points with its map for bundle
   // adjustment to place it: its pose is held like the origin's (local BA keeps it fixed, culling

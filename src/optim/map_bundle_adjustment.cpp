@@ -62,20 +62,32 @@ void applyMapBaResult(map::Map& map, const MapBaProblem& problem) {
   }
 }
 
-std::vector<map::Keyframe*> weakKeyframesMovedFar(const MapBaProblem& problem, double max_move_m,
-                                                  bool relative_to_parent) {
+namespace {
+
+// Keyframe id -> its index in the problem.
+std::map<uint64_t, size_t> keyframeIndex(const MapBaProblem& problem) {
   std::map<uint64_t, size_t> index;
   for (size_t i = 0; i < problem.keyframes.size(); ++i) index[problem.keyframes[i]->id] = i;
-  const auto moved = [&](size_t i) {
-    return Vec3(problem.ba_keyframes[i].T_c_w.inverse().translation() - problem.centres_before[i]);
-  };
+  return index;
+}
+
+// How far the solve moved keyframe i's camera centre.
+Vec3 centreMove(const MapBaProblem& problem, size_t i) {
+  return Vec3(problem.ba_keyframes[i].T_c_w.inverse().translation() - problem.centres_before[i]);
+}
+
+}  // namespace
+
+std::vector<map::Keyframe*> weakKeyframesMovedFar(const MapBaProblem& problem, double max_move_m,
+                                                  bool relative_to_parent) {
+  const std::map<uint64_t, size_t> index = keyframeIndex(problem);
   std::vector<map::Keyframe*> far;
   for (size_t i = 0; i < problem.keyframes.size(); ++i) {
     const map::Keyframe* k = problem.keyframes[i];
     if (problem.ba_keyframes[i].fixed || !k->made_at_weak_pose || k->pose_held || k->bad) continue;
-    Vec3 move = moved(i);
+    Vec3 move = centreMove(problem, i);
     if (relative_to_parent && k->parent != nullptr)
-      if (auto it = index.find(k->parent->id); it != index.end()) move -= moved(it->second);
+      if (auto it = index.find(k->parent->id); it != index.end()) move -= centreMove(problem, it->second);
     if (move.norm() > max_move_m) far.push_back(problem.keyframes[i]);
   }
   return far;
@@ -83,8 +95,7 @@ std::vector<map::Keyframe*> weakKeyframesMovedFar(const MapBaProblem& problem, d
 
 std::vector<map::Keyframe*> looseGroupsMovedFar(const MapBaProblem& problem, double max_move_m) {
   const size_t n = problem.keyframes.size();
-  std::map<uint64_t, size_t> index;
-  for (size_t i = 0; i < n; ++i) index[problem.keyframes[i]->id] = i;
+  const std::map<uint64_t, size_t> index = keyframeIndex(problem);
   // Groups: keyframes joined by enough shared points (union-find over the covisibility links).
   std::vector<size_t> group(n);
   for (size_t i = 0; i < n; ++i) group[i] = i;
@@ -98,19 +109,20 @@ std::vector<map::Keyframe*> looseGroupsMovedFar(const MapBaProblem& problem, dou
         group[root(i)] = root(it->second);
   std::map<size_t, std::vector<size_t>> members;
   for (size_t i = 0; i < n; ++i) members[root(i)].push_back(i);
-  const auto moved = [&](size_t i) {
-    return Vec3(problem.ba_keyframes[i].T_c_w.inverse().translation() - problem.centres_before[i]);
-  };
   std::vector<map::Keyframe*> far;
   for (const auto& [g, list] : members) {
     if (list.size() == n) break;  // one group: the map's own gauge holds it
-    bool anchored = false;
+    bool anchored = false, merged_in = true;
     Vec3 group_move = Vec3::Zero();
     for (size_t i : list) {
+      const map::Keyframe* k = problem.keyframes[i];
       anchored = anchored || problem.ba_keyframes[i].fixed;
-      group_move += moved(i);
+      merged_in = merged_in && k->made_in_map != k->map_id;
+      group_move += centreMove(problem, i);
     }
-    if (anchored) continue;
+    // A group of the map's own keyframes is placed by global BA, whatever ties it: there it
+    // corrects drift (an fr1_xyz composite's first map lost 6.7 mm main-map ATE when held).
+    if (anchored || !merged_in) continue;
     group_move /= static_cast<double>(list.size());
     // The distinct points tying the group to keyframes outside it, and where those keyframes went.
     std::set<const map::MapPoint*> ties;
@@ -123,7 +135,7 @@ std::vector<map::Keyframe*> looseGroupsMovedFar(const MapBaProblem& problem, dou
         for (const auto& [kid, obs] : p->observations)
           if (auto it = index.find(kid); it != index.end() && root(it->second) != g) {
             tie = true;
-            outside_move += moved(it->second);
+            outside_move += centreMove(problem, it->second);
             ++outside_views;
           }
         if (tie) ties.insert(p);

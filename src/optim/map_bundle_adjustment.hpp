@@ -58,10 +58,12 @@ std::vector<map::Keyframe*> weakKeyframesMovedFar(const MapBaProblem& problem, d
 constexpr int kMinGroupTiePoints = 20;
 
 // The groups of free keyframes (joined by at least kMinGroupTiePoints shared points, through
-// Keyframe::connection_weights) that hold no fixed keyframe, are tied to the keyframes outside them
-// by fewer than kMinGroupTiePoints distinct points, and that the solved `problem` moves more than
-// max_move_m relative to the keyframes those points tie them to (or at all, with none): for each,
-// its oldest keyframe. Map lock held (shared is enough).
+// Keyframe::connection_weights) that came into their map by a merge (every keyframe made in
+// another map), hold no fixed keyframe, are tied to the keyframes outside them by fewer than
+// kMinGroupTiePoints distinct points, and that the solved `problem` moves more than max_move_m
+// relative to the keyframes those points tie them to (or at all, with none): for each, its oldest
+// keyframe. A map's own keyframes are left to global BA, which corrects their drift. Map lock
+// held (shared is enough).
 std::vector<map::Keyframe*> looseGroupsMovedFar(const MapBaProblem& problem, double max_move_m);
 
 // The global problem: every keyframe and point of the map; the origins and the held keyframes are

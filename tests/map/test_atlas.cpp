@@ -82,6 +82,8 @@ TEST(Atlas, MergeMovesTheWholeMapByTheTransformAndRelabelsIt) {
   EXPECT_EQ(kb->map_id, a);
   EXPECT_EQ(kb2->map_id, a);
   EXPECT_FALSE(kb->map_origin) << "after a merge only the surviving map's origin holds the gauge";
+  EXPECT_EQ(kb->made_in_map, b) << "where a keyframe was made survives the merge";
+  EXPECT_EQ(ka->made_in_map, a);
   EXPECT_TRUE(ka->map_origin);
   EXPECT_EQ(map.keyframeCount(a), 3u);
   EXPECT_EQ(map.keyframeCount(b), 0u);
@@ -102,6 +104,7 @@ TEST(Atlas, MergeMovesTheWholeMapByTheTransformAndRelabelsIt) {
   // A keyframe created for the merged map lands in the live one.
   Keyframe* late = addKeyframe(map, b, SE3(), 1, Vec3(0, 0, 1));
   EXPECT_EQ(late->map_id, a);
+  EXPECT_EQ(late->made_in_map, a);
   EXPECT_FALSE(late->map_origin);
 }
 

@@ -242,11 +242,18 @@ TEST(GlobalBundleAdjustment, AWeakKeyframeItWouldCarryFarIsHeld) {
 // start 15 cm beside where those few points put them, everything else consistent. Tied by 5
 // points, global BA holds the group where it is (looseGroupsMovedFar: a handful of points,
 // possibly a walker's matched by mistake, cannot place it); tied by 60, they join it to the map
-// and global BA places it.
-TEST(GlobalBundleAdjustment, AGroupTiedByFewPointsIsHeldWhereItIs) {
+// and global BA places it. Made in the map itself (no merge), the group is global BA's to place
+// however few points tie it: nothing is held.
+TEST(GlobalBundleAdjustment, AGroupMergedInAndTiedByFewPointsIsHeldWhereItIs) {
   const PinholeCamera camera = test::tumCamera();
-  for (const int ties : {5, 60}) {
-    SCOPED_TRACE(std::to_string(ties) + " tie points");
+  struct Case {
+    int ties;
+    bool merged_in;
+  };
+  for (const Case c : {Case{5, true}, Case{60, true}, Case{5, false}}) {
+    const int ties = c.ties;
+    const bool held = ties < kMinGroupTiePoints && c.merged_in;
+    SCOPED_TRACE(std::to_string(ties) + " tie points, " + (c.merged_in ? "merged in" : "made in the map"));
     auto s = makeMapScene(camera, 8, 600, 13);
     const SE3 shift(Mat3::Identity(), Vec3(0.15, 0.0, 0.0));  // world-frame move of group B
     const auto inGroupB = [](size_t k) { return k >= 5; };
@@ -275,6 +282,7 @@ TEST(GlobalBundleAdjustment, AGroupTiedByFewPointsIsHeldWhereItIs) {
       for (size_t k = 0; k < s->keyframes.size(); ++k) {
         s->keyframes[k]->T_c_w = inGroupB(k) ? s->true_T_c_w[k] * shift.inverse() : s->true_T_c_w[k];
         start[k] = s->keyframes[k]->T_c_w;
+        if (inGroupB(k) && c.merged_in) s->keyframes[k]->made_in_map = s->keyframes[k]->map_id + 1;
       }
       for (map::Keyframe* k : s->keyframes) map::updateConnections(k);
     }
@@ -282,19 +290,21 @@ TEST(GlobalBundleAdjustment, AGroupTiedByFewPointsIsHeldWhereItIs) {
     std::shared_lock lock(s->map.mutex());
     EXPECT_TRUE(result.completed);
     EXPECT_EQ(result.weak_keyframes_held, 0u);
-    EXPECT_EQ(result.loose_groups_held, ties < kMinGroupTiePoints ? 1u : 0u);
+    EXPECT_EQ(result.loose_groups_held, held ? 1u : 0u);
     for (size_t k = 0; k < s->keyframes.size(); ++k) {
       const double from_start_m = translationError(s->keyframes[k]->T_c_w, start[k]);
       const double from_truth_m = translationError(s->keyframes[k]->T_c_w, s->true_T_c_w[k]);
       if (!inGroupB(k)) {
         EXPECT_LT(from_truth_m, 0.005) << "keyframe " << k;
-      } else if (ties < kMinGroupTiePoints) {
+      } else if (held) {
         EXPECT_LT(from_start_m, 0.005) << "keyframe " << k << " stays where it was";
-      } else {
+      } else if (ties >= kMinGroupTiePoints) {
         EXPECT_LT(from_truth_m, 0.005) << "keyframe " << k << " is placed by its ties";
+      } else {
+        EXPECT_GT(from_start_m, 0.05) << "keyframe " << k << " is moved by global BA";
       }
     }
-    EXPECT_EQ(s->keyframes[5]->pose_held, ties < kMinGroupTiePoints);
+    EXPECT_EQ(s->keyframes[5]->pose_held, held);
   }
 }
 
