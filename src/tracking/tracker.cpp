@@ -923,6 +923,10 @@ bool Tracker::initialize(map::Frame& frame, TrackOutcome& outcome, const char* r
   last_T_c_r_ = SE3::identity();
   last_frame_ = frame;
   velocity_.reset();
+  // The recent motion starts again here: the frames before lie in another map's world (or none),
+  // and a bridge over them would mix two worlds.
+  recent_poses_.clear();
+  recent_poses_.push_back({frame.timestamp, kf, SE3::identity(), frame.T_c_w});
   pushHistory(frame, kf, SE3::identity());
   records_.push_back({frame.id, frame.timestamp, kf, SE3::identity(), active_map_, PoseSource::kTracked});
   ++maps_started_;

@@ -342,6 +342,44 @@ TEST(TrackerBridging, AMergeThatMovesTheWorldDoesNotEnterTheBridgedMotion) {
       << "bridged step " << bridged_step.transpose() << ", camera's average step " << average_step.transpose();
 }
 
+// A map started after a loss (map 0's points gone, as when what it mapped is covered): the recent
+// motion restarts with it. Two frames tracked after the new map's first, then a covered one: the
+// bridge continues the new map's own frames, whose world is the new map's, not the frames of the
+// map before (before the fix they stayed among the last five and the bridged step was off by the
+// distance between the two worlds over the time between the frames).
+TEST(TrackerBridging, AfterANewMapStartsTheBridgeUsesOnlyItsFrames) {
+  SystemOptions options = baseOptions();
+  options.tracking.odometry_min_inliers = 0;  // with map 0's points gone only a new map tracks again
+  const Trajectory path = sim::sweepPath(kSpeedFrames + 30, options.camera.fps);
+  Rig rig(options);
+  for (int i = 0; i < kSpeedFrames; ++i) {
+    map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
+    ASSERT_TRUE(rig.track(frame).tracked) << "frame " << i;
+  }
+  keepOnlyPointsSeenFrom(rig, options, SE3(), 0);
+  size_t start = 0;
+  std::vector<Vec3> centres;  // camera centres in the new map's world
+  for (size_t i = kSpeedFrames; i < path.size() && centres.size() < 3; ++i) {
+    map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, i);
+    const TrackOutcome outcome = rig.track(frame);
+    if (outcome.new_map) start = i;
+    if (start == 0) continue;
+    ASSERT_TRUE(outcome.tracked) << "frame " << i;
+    centres.push_back(frame.T_c_w.inverse().translation());
+  }
+  ASSERT_GT(start, 0u) << "no new map started";
+  ASSERT_EQ(centres.size(), 3u);
+  ASSERT_LT(start + 3, path.size());
+  map::Frame covered = rig.blank(path[start + 3].timestamp, start + 3);
+  ASSERT_TRUE(rig.track(covered).predicted);
+  const Vec3 average_step = (centres[2] - centres[0]) / 2.0;
+  const Vec3 bridged_step = covered.T_c_w.inverse().translation() - centres[2];
+  EXPECT_LT((bridged_step - average_step).norm(), 0.002)
+      << "bridged step " << bridged_step.transpose() << ", the new map's average step " << average_step.transpose();
+  const SE3 truth_T_c_w = (path[start].T_w_c.inverse() * path[start + 3].T_w_c).inverse();
+  EXPECT_LT(cameraDistance(covered.T_c_w, truth_T_c_w), 0.01);
+}
+
 // After a bridged loss (one covered frame), the next frame is seen 10 cm beside where the motion
 // says it is: 1.5 m/s over the 2 frames since the last tracked one (under the 3 m/s speed gate),
 // but 5 m/s^2 allows 3 cm + 1.1 cm there: refused. With the gate off the same frame is tracked,
