@@ -283,7 +283,8 @@ class Tracker {
   // The last tracked frames' poses (oldest first): the motion bridged through a loss is their
   // average over kBridgeVelocityFrames, not the last step's, which walkers crossing the view just
   // before the loss disturb most. Each pose follows its reference keyframe (as history_ does):
-  // a merge or loop correction between two of them would otherwise count as camera motion.
+  // a merge or loop correction between two of them would otherwise count as camera motion. They
+  // are all in the map tracked now: a frame found again after a loss and a map's start begin anew.
   struct RecentPose {
     Timestamp timestamp = 0;
     const map::Keyframe* reference = nullptr;
