@@ -713,6 +713,7 @@ nlohmann::json SlamSystem::statistics() const {
                    {"found_in_other_map", tracker_.foundInOtherMap()},
                    {"implausible_jumps_refused", tracker_.implausibleJumps()},
                    {"bridge_disagreements_refused", tracker_.bridgeDisagreements()},
+                   {"bridge_overruled", tracker_.bridgeOverruled()},
                    {"weak_poses", tracker_.weakPoses()},
                    {"odometry_poses", tracker_.odometryPoses()},
                    {"depth_odometry_poses", tracker_.depthOdometryPoses()},

@@ -98,6 +98,14 @@ double maskedShare(const map::Frame& frame) {
   const std::vector<uint8_t> in_mask = dynamic::featuresInMask(*frame.features, frame.dynamic_mask);
   return static_cast<double>(std::count(in_mask.begin(), in_mask.end(), uint8_t{1})) / static_cast<double>(in_mask.size());
 }
+
+// The middle value (the two middle ones averaged for an even count); 0 for none.
+double medianOf(std::vector<int> values) {
+  if (values.empty()) return 0.0;
+  std::sort(values.begin(), values.end());
+  const size_t half = values.size() / 2;
+  return values.size() % 2 == 1 ? values[half] : 0.5 * (values[half - 1] + values[half]);
+}
 }  // namespace
 
 Tracker::Tracker(const TrackerOptions& options, const PinholeCamera& camera, map::Map& map,
@@ -306,7 +314,8 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   // Found again in the same map after a bridged loss: unmasked features on people are not checked
   // by stage 1 while recovering, and may carry the pose along with them (a fr1_xyz composite with
   // close walkers: 8 cm off the bridged pose 2 frames after the loss, then 3.5 cm more per frame).
-  if (ok && recovering && back_in_last_map && had_motion && disagreesWithBridge(frame)) {
+  // Only the local map's support can outweigh the bridge's: an odometry pose rests on one frame.
+  if (ok && recovering && back_in_last_map && had_motion && disagreesWithBridge(frame, odometry_only ? 0 : inliers)) {
     ok = false;
     ++bridge_disagreements_;
   }
@@ -477,7 +486,7 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   records_.push_back({frame.id, frame.timestamp, reference_keyframe_, last_T_c_r_, active_map_, PoseSource::kTracked});
   if (!recent_poses_.empty() && recent_poses_.back().timestamp >= frame.timestamp) recent_poses_.clear();
   if (recovering) recent_poses_.clear();  // the frames before the gap may be in another map
-  recent_poses_.push_back({frame.timestamp, reference_keyframe_, last_T_c_r_, frame.T_c_w});
+  recent_poses_.push_back({frame.timestamp, reference_keyframe_, last_T_c_r_, frame.T_c_w, inliers});
   while (recent_poses_.size() > kBridgeVelocityFrames + 1) recent_poses_.pop_front();
   // The frames between the last tracked frame and this one (lost, or predicted) get poses.
   if (!unsettled_.empty()) {
@@ -901,6 +910,7 @@ bool Tracker::initialize(map::Frame& frame, TrackOutcome& outcome, const char* r
   frame.T_c_w = SE3::identity();
   frame.has_pose = true;
   map::Keyframe* kf = nullptr;
+  int points_created = 0;
   {
     std::unique_lock lock(map_.mutex());
     active_map_ = map_.createMap(frame.id, frame.timestamp, reason);
@@ -913,6 +923,7 @@ bool Tracker::initialize(map::Frame& frame, TrackOutcome& outcome, const char* r
       map::updateDescriptor(p);
       map::updateNormalAndDepth(p);
       frame.matches[i].point = p;
+      ++points_created;
     }
   }
   reference_keyframe_ = last_keyframe_ = kf;
@@ -926,7 +937,7 @@ bool Tracker::initialize(map::Frame& frame, TrackOutcome& outcome, const char* r
   // The recent motion starts again here: the frames before lie in another map's world (or none),
   // and a bridge over them would mix two worlds.
   recent_poses_.clear();
-  recent_poses_.push_back({frame.timestamp, kf, SE3::identity(), frame.T_c_w});
+  recent_poses_.push_back({frame.timestamp, kf, SE3::identity(), frame.T_c_w, points_created});
   pushHistory(frame, kf, SE3::identity());
   records_.push_back({frame.id, frame.timestamp, kf, SE3::identity(), active_map_, PoseSource::kTracked});
   ++maps_started_;
@@ -1181,7 +1192,7 @@ bool Tracker::implausibleJump(const SE3& T_c_w, Timestamp t) const {
   return moved > options_.tracking.max_speed_m_s * seconds;
 }
 
-bool Tracker::disagreesWithBridge(const map::Frame& frame) const {
+bool Tracker::disagreesWithBridge(const map::Frame& frame, int map_inliers) {
   const double a = options_.tracking.max_acceleration_m_s2;
   // Only a bridge resting on an established motion (kBridgeVelocityFrames tracked frames in a row)
   // is trusted to judge: one built on a single frame found again after a loss is no better than
@@ -1212,6 +1223,20 @@ bool Tracker::disagreesWithBridge(const map::Frame& frame) const {
     spdlog::debug("tracking: frame {}: tracked frame at {:.3f} s left the motion before it by {:.3f} m; {:.3f} m from "
                   "the bridge from the frame before it", frame.id, pose.timestamp, jump_m, off_before_m);
     refused = off_before_m > limit_m;
+  }
+  // A bridge is only as good as the frames it extrapolates: a pose found again with far more
+  // support than they had is trusted over it (tracking.bridge_overruled_inlier_ratio).
+  const double ratio = options_.tracking.bridge_overruled_inlier_ratio;
+  if (refused && ratio > 0) {
+    std::vector<int> support;
+    for (const RecentPose& pose : recent_poses_) support.push_back(pose.inliers);
+    const double median = medianOf(support);
+    spdlog::debug("tracking: frame {} found again with {} local-map inliers; the bridge's frames had {:.1f} (median)",
+                  frame.id, map_inliers, median);
+    if (map_inliers >= 2 * kMinLocalMapInliersAfterStage2 && map_inliers >= ratio * median) {
+      refused = false;
+      ++bridge_overruled_;
+    }
   }
   spdlog::debug("tracking: frame {} found again {:.3f} m from the bridged pose after {:.3f} s (limit {:.3f} m): {}",
                 frame.id, off_m, seconds, limit_m, refused ? "refused" : "accepted");

@@ -109,6 +109,8 @@ class Tracker {
   int implausibleJumps() const { return implausible_jumps_; }  // poses refused by tracking.max_speed_m_s
   // Poses found again after a bridged loss, refused by tracking.max_acceleration_m_s2.
   int bridgeDisagreements() const { return bridge_disagreements_; }
+  // ... and those accepted there because they had far more inliers than the frames the bridge rests on.
+  int bridgeOverruled() const { return bridge_overruled_; }
   int weakPoses() const { return weak_poses_; }  // frames kept with few inliers near the prediction
   int predictedPoses() const { return predicted_poses_; }  // lost frames given the motion prediction
   // Of those, the ones whose motion since the predicted frame before came from odometry against it.
@@ -290,14 +292,17 @@ class Tracker {
     const map::Keyframe* reference = nullptr;
     SE3 T_c_r;
     SE3 T_c_w;
+    int inliers = 0;  // local-map inliers (odometry's for an odometry pose; a map's first frame: its points)
   };
   std::deque<RecentPose> recent_poses_;
   // The constant velocity over recent_poses_[0..last], as the motion from recent_poses_[last]'s time
   // to t; none from fewer than two poses or no time between them.
   std::optional<SE3> recentMotion(size_t last, Timestamp t) const;
   SE3 bridgedPose(Timestamp t) const;
-  // tracking.max_acceleration_m_s2: the frame's pose is too far from bridgedPose().
-  bool disagreesWithBridge(const map::Frame& frame) const;
+  // tracking.max_acceleration_m_s2: the frame's pose is too far from bridgedPose(), and its
+  // local-map inliers (0 for an odometry pose) do not outweigh the bridge's frames
+  // (tracking.bridge_overruled_inlier_ratio).
+  bool disagreesWithBridge(const map::Frame& frame, int map_inliers);
   map::Keyframe* reference_keyframe_ = nullptr;
   map::Keyframe* last_keyframe_ = nullptr;
   uint64_t last_keyframe_frame_id_ = 0;
@@ -321,6 +326,7 @@ class Tracker {
   int found_in_other_map_ = 0;
   int implausible_jumps_ = 0;
   int bridge_disagreements_ = 0;
+  int bridge_overruled_ = 0;
   int maps_started_ = 0;
   int weak_poses_ = 0;
   int predicted_poses_ = 0;

@@ -12,6 +12,11 @@ void TrackingOptions::validate() const {
   requireInRange(s, "min_inliers", min_inliers, 4, 1000);
   requireInRange(s, "max_speed_m_s", max_speed_m_s, 0.01, 1000.0);
   requireInRange(s, "max_acceleration_m_s2", max_acceleration_m_s2, 0.0, 1000.0);
+  requireThat(bridge_overruled_inlier_ratio == 0.0 ||
+                  (bridge_overruled_inlier_ratio >= 1.0 && bridge_overruled_inlier_ratio <= 100.0),
+              s, "bridge_overruled_inlier_ratio",
+              "is " + std::to_string(bridge_overruled_inlier_ratio) +
+                  "; expected 0 (off) or 1-100 (a pose found again must be at least as well supported as the bridge)");
   requireInRange(s, "max_frames_between_keyframes", max_frames_between_keyframes, 1, 100000);
   requireInRange(s, "min_frames_between_keyframes", min_frames_between_keyframes, 0,
                  max_frames_between_keyframes);

@@ -74,6 +74,9 @@ TEST(Options, EachSectionNamesItsKey) {
   EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.tracking.min_inliers = 0; }, "tracking.min_inliers");
   EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.tracking.keyframe_tracked_ratio = 1.5; },
                          "tracking.keyframe_tracked_ratio");
+  // 0 turns it off; between 0 and 1 a pose found again with fewer inliers than the bridge's frames would overrule it.
+  EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.tracking.bridge_overruled_inlier_ratio = 0.5; },
+                         "tracking.bridge_overruled_inlier_ratio");
   EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.mapping.local_ba_iterations = 0; },
                          "mapping.local_ba_iterations");
   EXPECT_REJECTED_NAMING([](SystemOptions& o) { o.dynamic.stage1_threshold = -0.1; }, "dynamic.stage1_threshold");

@@ -259,6 +259,14 @@ TEST(TrackerSpeedGate, AFrameFoundAgainInTheSameMapIsHeldToTheSpeedSinceTheLastT
 // ---------------------------------------------------------------------------------------------
 // Bridging a short loss (tracking.predict_through_loss_s)
 
+// Marks the features outside columns [from, to) as masked (not usable).
+void keepOnlyColumns(map::Frame& frame, double from, double to) {
+  for (size_t i = 0; i < frame.features->size(); ++i) {
+    const double x = frame.features->uv[i].x();
+    if (x < from || x >= to) frame.status[i] = map::FeatureStatus::kDynamicMask;
+  }
+}
+
 // Frames 0..kSpeedFrames-1 of `path` tracked, then frame kSpeedFrames covered (bridged).
 void trackThenCover(Rig& rig, const Trajectory& path) {
   for (int i = 0; i < kSpeedFrames; ++i) {
@@ -382,7 +390,8 @@ TEST(TrackerBridging, AfterANewMapStartsTheBridgeUsesOnlyItsFrames) {
 
 // After a bridged loss (one covered frame), the next frame is seen 10 cm beside where the motion
 // says it is: 1.5 m/s over the 2 frames since the last tracked one (under the 3 m/s speed gate),
-// but 5 m/s^2 allows 3 cm + 1.1 cm there: refused. With the gate off the same frame is tracked,
+// but 5 m/s^2 allows 3 cm + 1.1 cm there: refused (it sees the view the frames before saw, with
+// about their inliers, not the far more that would overrule the bridge). With the gate off the same frame is tracked,
 // at the displaced pose; a frame where the motion says it is tracked either way.
 TEST(TrackerBridging, AFrameFoundAgainFarFromTheBridgedPoseIsRefused) {
   const double frame_s = 1.0 / baseOptions().camera.fps;
@@ -410,6 +419,47 @@ TEST(TrackerBridging, AFrameFoundAgainFarFromTheBridgedPoseIsRefused) {
       EXPECT_EQ(rig.tracker().implausibleJumps(), 0);
       if (displaced && !refused) EXPECT_LT(cameraDistance(back.T_c_w, expected_jump_T_c_w), 0.03);
     }
+  }
+}
+
+// The same 10 cm jump, but the last six tracked frames (those the bridge rests on) each kept only
+// a quarter of the view's columns (as when walkers cover the rest), and the frame found again sees
+// all of it, with about twice their inliers: the bridge is the weaker estimate and the frame is
+// tracked where it is seen (tracking.bridge_overruled_inlier_ratio). With the ratio 0 it is
+// refused, as above.
+TEST(TrackerBridging, AFrameFoundAgainWithFarMoreInliersThanTheBridgesFramesOverrulesIt) {
+  const double width = baseOptions().camera.width;
+  const Trajectory path = sim::sweepPath(kSpeedFrames + 2, baseOptions().camera.fps);
+  const StampedPose& next = path[kSpeedFrames + 1];
+  const SE3 T_w_jump(next.T_w_c.rotation(), next.T_w_c.translation() + next.T_w_c.rotation() * Vec3(0.1, 0.0, 0.0));
+  const SE3 expected_jump_T_c_w = (path.front().T_w_c.inverse() * T_w_jump).inverse();
+  ASSERT_DOUBLE_EQ(baseOptions().tracking.bridge_overruled_inlier_ratio, 1.25);
+  for (const double ratio : {1.25, 0.0}) {
+    SCOPED_TRACE("bridge_overruled_inlier_ratio " + std::to_string(ratio));
+    SystemOptions options = baseOptions();
+    options.tracking.bridge_overruled_inlier_ratio = ratio;
+    options.atlas.enabled = false;  // a refused frame stays in the map, bridged
+    Rig rig(options);
+    std::vector<int> thinned_inliers;
+    for (int i = 0; i < kSpeedFrames; ++i) {
+      map::Frame frame = rig.render(path[i].T_w_c, path[i].timestamp, static_cast<uint64_t>(i));
+      const bool thinned = i >= kSpeedFrames - 6;
+      if (thinned) keepOnlyColumns(frame, 0.375 * width, 0.625 * width);
+      const TrackOutcome outcome = rig.track(frame);
+      ASSERT_TRUE(outcome.tracked) << "frame " << i;
+      if (thinned) thinned_inliers.push_back(outcome.inliers);
+    }
+    map::Frame covered = rig.blank(path[kSpeedFrames].timestamp, kSpeedFrames);
+    ASSERT_TRUE(rig.track(covered).predicted);
+    map::Frame back = rig.render(T_w_jump, next.timestamp, kSpeedFrames + 1);
+    const TrackOutcome outcome = rig.track(back);
+    const int most_thinned = *std::max_element(thinned_inliers.begin(), thinned_inliers.end());
+    ASSERT_GT(outcome.inliers, 1.5 * most_thinned) << "the frame found again must be far better supported";
+    const bool overruled = ratio > 0;
+    EXPECT_EQ(outcome.tracked, overruled);
+    EXPECT_EQ(rig.tracker().bridgeOverruled(), overruled ? 1 : 0);
+    EXPECT_EQ(rig.tracker().bridgeDisagreements(), overruled ? 0 : 1);
+    if (overruled) EXPECT_LT(cameraDistance(back.T_c_w, expected_jump_T_c_w), 0.03);
   }
 }
 
@@ -498,14 +548,6 @@ TEST(TrackerOdometry, CarriesTrackingWhenTheMapGivesNoPoseAndRefusesADisagreeing
       }
     }
     EXPECT_EQ(rig.tracker().odometryPoses(), c == Case::kOdometry ? kOdometryFrames : 0);
-  }
-}
-
-// Marks the features outside columns [from, to) as masked (not usable).
-void keepOnlyColumns(map::Frame& frame, double from, double to) {
-  for (size_t i = 0; i < frame.features->size(); ++i) {
-    const double x = frame.features->uv[i].x();
-    if (x < from || x >= to) frame.status[i] = map::FeatureStatus::kDynamicMask;
   }
 }
 
