@@ -315,9 +315,14 @@ TrackOutcome Tracker::track(map::Frame& frame, bool mapping_idle, int mapping_ba
   // by stage 1 while recovering, and may carry the pose along with them (a fr1_xyz composite with
   // close walkers: 8 cm off the bridged pose 2 frames after the loss, then 3.5 cm more per frame).
   // Only the local map's support can outweigh the bridge's: an odometry pose rests on one frame.
-  if (ok && recovering && back_in_last_map && had_motion && disagreesWithBridge(frame, odometry_only ? 0 : inliers)) {
-    ok = false;
-    ++bridge_disagreements_;
+  if (ok && recovering && back_in_last_map && had_motion) {
+    const BridgeJudgement judgement = judgeAgainstBridge(frame, odometry_only ? 0 : inliers);
+    if (judgement == BridgeJudgement::kRefused) {
+      ok = false;
+      ++bridge_disagreements_;
+    } else if (judgement == BridgeJudgement::kOverruled) {
+      ++bridge_overruled_;
+    }
   }
 
   outcome.odometry = ok && odometry_only;
@@ -1192,12 +1197,12 @@ bool Tracker::implausibleJump(const SE3& T_c_w, Timestamp t) const {
   return moved > options_.tracking.max_speed_m_s * seconds;
 }
 
-bool Tracker::disagreesWithBridge(const map::Frame& frame, int map_inliers) {
+Tracker::BridgeJudgement Tracker::judgeAgainstBridge(const map::Frame& frame, int map_inliers) const {
   const double a = options_.tracking.max_acceleration_m_s2;
   // Only a bridge resting on an established motion (kBridgeVelocityFrames tracked frames in a row)
   // is trusted to judge: one built on a single frame found again after a loss is no better than
   // the frame it would judge.
-  if (a <= 0 || recent_poses_.size() < kBridgeVelocityFrames + 1) return false;
+  if (a <= 0 || recent_poses_.size() < kBridgeVelocityFrames + 1) return BridgeJudgement::kAgrees;
   const double seconds = std::max(frame.timestamp - last_frame_.timestamp, 1.0 / 30.0);
   const SE3 bridged = bridgedPose(frame.timestamp);
   const double off_m = (frame.T_c_w.inverse().translation() - bridged.inverse().translation()).norm();
@@ -1227,20 +1232,19 @@ bool Tracker::disagreesWithBridge(const map::Frame& frame, int map_inliers) {
   // A bridge is only as good as the frames it extrapolates: a pose found again with far more
   // support than they had is trusted over it (tracking.bridge_overruled_inlier_ratio).
   const double ratio = options_.tracking.bridge_overruled_inlier_ratio;
+  bool overruled = false;
   if (refused && ratio > 0) {
     std::vector<int> support;
     for (const RecentPose& pose : recent_poses_) support.push_back(pose.inliers);
     const double median = medianOf(support);
     spdlog::debug("tracking: frame {} found again with {} local-map inliers; the bridge's frames had {:.1f} (median)",
                   frame.id, map_inliers, median);
-    if (map_inliers >= 2 * kMinLocalMapInliersAfterStage2 && map_inliers >= ratio * median) {
-      refused = false;
-      ++bridge_overruled_;
-    }
+    overruled = map_inliers >= 2 * kMinLocalMapInliersAfterStage2 && map_inliers >= ratio * median;
   }
   spdlog::debug("tracking: frame {} found again {:.3f} m from the bridged pose after {:.3f} s (limit {:.3f} m): {}",
-                frame.id, off_m, seconds, limit_m, refused ? "refused" : "accepted");
-  return refused;
+                frame.id, off_m, seconds, limit_m, !refused ? "accepted" : overruled ? "accepted (overruled)" : "refused");
+  if (!refused) return BridgeJudgement::kAgrees;
+  return overruled ? BridgeJudgement::kOverruled : BridgeJudgement::kRefused;
 }
 
 std::optional<SE3> Tracker::recentMotion(size_t last, Timestamp t) const {

@@ -299,10 +299,11 @@ class Tracker {
   // to t; none from fewer than two poses or no time between them.
   std::optional<SE3> recentMotion(size_t last, Timestamp t) const;
   SE3 bridgedPose(Timestamp t) const;
-  // tracking.max_acceleration_m_s2: the frame's pose is too far from bridgedPose(), and its
-  // local-map inliers (0 for an odometry pose) do not outweigh the bridge's frames
-  // (tracking.bridge_overruled_inlier_ratio).
-  bool disagreesWithBridge(const map::Frame& frame, int map_inliers);
+  // tracking.max_acceleration_m_s2: refused when the frame's pose is too far from bridgedPose() and
+  // its local-map inliers (0 for an odometry pose) do not outweigh those of the bridge's frames
+  // (tracking.bridge_overruled_inlier_ratio); overruled when they do.
+  enum class BridgeJudgement { kAgrees, kRefused, kOverruled };
+  BridgeJudgement judgeAgainstBridge(const map::Frame& frame, int map_inliers) const;
   map::Keyframe* reference_keyframe_ = nullptr;
   map::Keyframe* last_keyframe_ = nullptr;
   uint64_t last_keyframe_frame_id_ = 0;

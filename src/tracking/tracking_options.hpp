@@ -27,7 +27,7 @@ struct TrackingOptions {
   // camera found further away followed walkers whose features the masks missed (unchecked while
   // lost); but where one of the last two tracked frames left the motion before it by more than
   // 3 cm, the bridge from the frame before that one may vouch instead
-  // (Tracker::disagreesWithBridge). The same bound keeps a weak pose (20-29 local-map inliers)
+  // (Tracker::judgeAgainstBridge). The same bound keeps a weak pose (20-29 local-map inliers)
   // found after a loss. 0 = off (and weak poses within 3 cm of the prediction only).
   double max_acceleration_m_s2 = 5.0;
   // ... unless the pose found again has at least this many times the inliers of the tracked
