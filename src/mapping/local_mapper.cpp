@@ -307,6 +307,7 @@ void LocalMapper::localBundleAdjustment(map::Keyframe* kf, const std::atomic<boo
   // 21 cm in its first local BA and ended 46 cm off, with the frames tracked from it. Such a
   // keyframe the solve would move more than kMaxWeakKeyframeMoveM is held where tracking put it
   // (Keyframe::pose_held) and the window solved again; held keyframes stay fixed, so at most once.
+  // Any other keyframe the solve would move more than kMaxKeyframeMoveM likewise.
   for (int attempt = 0; attempt < 2; ++attempt) {
     std::optional<optim::MapBaProblem> problem = localBaProblem(kf);
     if (!problem) return;
@@ -319,14 +320,14 @@ void LocalMapper::localBundleAdjustment(map::Keyframe* kf, const std::atomic<boo
     if (!finished) ++stats_.ba_aborted;
 
     std::unique_lock lock(map_.mutex());
-    if (attempt == 0 && holdWeakKeyframesMovedFar(*problem)) continue;
+    if (attempt == 0 && holdKeyframesMovedFar(*problem)) continue;
     optim::applyMapBaResult(map_, *problem);
     return;
   }
 }
 
-bool LocalMapper::holdWeakKeyframesMovedFar(const optim::MapBaProblem& problem) {
-  // On 35 fr1 composite runs this acted in 7.
+bool LocalMapper::holdKeyframesMovedFar(const optim::MapBaProblem& problem) {
+  // On 35 fr1 composite runs the weak-pose bar acted in 7.
   const std::vector<map::Keyframe*> far =
       optim::weakKeyframesMovedFar(problem, optim::kMaxWeakKeyframeMoveM, /*relative_to_parent=*/false);
   for (map::Keyframe* k : far) {
@@ -335,7 +336,13 @@ bool LocalMapper::holdWeakKeyframesMovedFar(const optim::MapBaProblem& problem) 
     k->pose_held = true;
     ++stats_.weak_keyframes_held;
   }
-  return !far.empty();
+  const std::vector<map::Keyframe*> stepped = optim::keyframesMovedFar(problem, optim::kMaxKeyframeMoveM);
+  for (map::Keyframe* k : stepped) {
+    spdlog::debug("mapping: keyframe {} would move over {:.2f} m in local BA: held", k->id, optim::kMaxKeyframeMoveM);
+    k->pose_held = true;
+    ++stats_.keyframes_held_moved_far;
+  }
+  return !far.empty() || !stepped.empty();
 }
 
 void LocalMapper::cullRedundantKeyframes(map::Keyframe* kf) {

@@ -39,6 +39,7 @@ struct LocalMappingStats {
   size_t ba_runs = 0;
   size_t ba_aborted = 0;
   size_t weak_keyframes_held = 0;  // keyframes made at weak poses held where local BA would move them far
+  size_t keyframes_held_moved_far = 0;  // other keyframes local BA would move far (kMaxKeyframeMoveM)
   // Milliseconds per processed keyframe, per step.
   std::vector<double> insert_ms, cull_points_ms, triangulate_ms, fuse_ms, ba_ms, cull_keyframes_ms, total_ms;
 };
@@ -64,8 +65,9 @@ class LocalMapper {
   // fixed); none with fewer than two keyframes. Takes the map lock shared.
   std::optional<optim::MapBaProblem> localBaProblem(map::Keyframe* kf) const;
   // Holds (Keyframe::pose_held) the free keyframes made at weak poses that the solved `problem`
-  // moves more than kMaxWeakKeyframeMoveM; whether any. Map lock held exclusively.
-  bool holdWeakKeyframesMovedFar(const optim::MapBaProblem& problem);
+  // moves more than kMaxWeakKeyframeMoveM, and the others it moves more than kMaxKeyframeMoveM
+  // (optim::keyframesMovedFar); whether any. Map lock held exclusively.
+  bool holdKeyframesMovedFar(const optim::MapBaProblem& problem);
   void cullRedundantKeyframes(map::Keyframe* kf);
 
   LocalMapperOptions options_;

@@ -93,6 +93,21 @@ std::vector<map::Keyframe*> weakKeyframesMovedFar(const MapBaProblem& problem, d
   return far;
 }
 
+std::vector<map::Keyframe*> keyframesMovedFar(const MapBaProblem& problem, double max_move_m) {
+  const std::map<uint64_t, size_t> index = keyframeIndex(problem);
+  std::vector<map::Keyframe*> far;
+  for (size_t i = 0; i < problem.keyframes.size(); ++i) {
+    const map::Keyframe* k = problem.keyframes[i];
+    if (problem.ba_keyframes[i].fixed || k->made_at_weak_pose || k->pose_held || k->bad) continue;
+    const Vec3 move = centreMove(problem, i);
+    Vec3 from_parent = move;
+    if (k->parent != nullptr)
+      if (auto it = index.find(k->parent->id); it != index.end()) from_parent -= centreMove(problem, it->second);
+    if (move.norm() > max_move_m && from_parent.norm() > max_move_m) far.push_back(problem.keyframes[i]);
+  }
+  return far;
+}
+
 std::vector<map::Keyframe*> looseGroupsMovedFar(const MapBaProblem& problem, double max_move_m) {
   const size_t n = problem.keyframes.size();
   const std::map<uint64_t, size_t> index = keyframeIndex(problem);

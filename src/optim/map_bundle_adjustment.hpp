@@ -31,6 +31,15 @@ struct MapBaProblem {
 // a merge elsewhere carried one 16 cm on a fr1_desk composite, the frames tracked from it with it.
 constexpr double kMaxWeakKeyframeMoveM = 0.05;
 
+// Farthest local bundle adjustment may move any other keyframe: 3 m/s (tracking.max_speed_m_s)
+// over one frame at 30 Hz, a step between consecutive frames that tracking itself refuses. Local
+// BA's window keeps the map around it fixed: on 16 fr1 runs (10 composites with DeepLab masks, 4
+// with 5-frame-old masks, the 2 static sequences) it moved 5 keyframes not made at a weak pose
+// 3.4-7.1 cm and all others less, but for one it moved 27.6 cm, in a young map started among walkers
+// (fr1_desk composite, 5-frame-old masks), from where 42 inliers had put it; a later global BA
+// carried it 54 cm further, with the frames tracked from it (that map's ATE 0.42 m).
+constexpr double kMaxKeyframeMoveM = 0.10;
+
 // keyframes[i] is held constant when fixed[i]. The points are those seen by the free keyframes;
 // each contributes its observations in every keyframe of the list (fixed ones anchor it).
 // Bad keyframes and points are skipped.
@@ -48,6 +57,13 @@ void applyMapBaResult(map::Map& map, const MapBaProblem& problem);
 // Map lock held (shared is enough).
 std::vector<map::Keyframe*> weakKeyframesMovedFar(const MapBaProblem& problem, double max_move_m,
                                                   bool relative_to_parent);
+
+// The free keyframes not made at a weak pose (those have their own bar), not held, that the solved
+// `problem` moves more than max_move_m both by their own move and by their move less their
+// spanning-tree parent's where the parent is in the problem: a parent and child moved together is
+// a correction of both, and a child left where it was while its parent moved was not moved at all.
+// For local BA. Map lock held (shared is enough).
+std::vector<map::Keyframe*> keyframesMovedFar(const MapBaProblem& problem, double max_move_m);
 
 // Fewest distinct points that tie a group of keyframes to the rest of its map for global BA to
 // place the group by them. A group whose keyframes share fewer points in all with the keyframes

@@ -748,6 +748,7 @@ nlohmann::json SlamSystem::statistics() const {
                         {"ba_runs", ms.ba_runs},
                         {"ba_aborted", ms.ba_aborted},
                         {"weak_keyframes_held", ms.weak_keyframes_held},
+                        {"keyframes_held_moved_far", ms.keyframes_held_moved_far},
                         {"timings_ms",
                          {{"insert", summarizeMilliseconds(ms.insert_ms)},
                           {"cull_points", summarizeMilliseconds(ms.cull_points_ms)},

@@ -340,6 +340,40 @@ TEST(MapBaProblem, AWeakKeyframesMoveIsMeasuredRelativeToItsParentWhereAsked) {
   EXPECT_EQ(ids(weakKeyframesMovedFar(problem, kMaxWeakKeyframeMoveM, true)), std::vector<uint64_t>{});
 }
 
+// Local BA holds any keyframe it would move more than kMaxKeyframeMoveM, by its own move and by
+// its move less its parent's where the parent is in the problem: a parent and child moved
+// together is a correction of both, a child left where it was while its parent moved was not
+// moved at all. Keyframes made at a weak pose (their own, stricter bar), held ones and fixed ones
+// are not reported.
+TEST(MapBaProblem, AKeyframeMovedFarByItselfIsReported) {
+  const PinholeCamera camera = test::tumCamera();
+  auto s = makeMapScene(camera, 7, 200, 5);
+  std::unique_lock lock(s->map.mutex());
+  for (size_t k = 1; k < 7; ++k) s->keyframes[k]->parent = s->keyframes[k - 1];
+  const std::vector<map::Keyframe*> in_problem(s->keyframes.begin() + 1, s->keyframes.end());  // 0 outside
+  MapBaProblem problem = buildMapBaProblem(in_problem, {false, false, false, false, false, true});
+  const auto shift = [&](size_t i, const Vec3& by_m) {  // problem keyframe i (keyframe i + 1) moved by by_m
+    const SE3 T_w_c = problem.ba_keyframes[i].T_c_w.inverse();
+    problem.ba_keyframes[i].T_c_w = SE3(T_w_c.rotation(), T_w_c.translation() + by_m).inverse();
+  };
+  shift(0, Vec3(0.12, 0, 0));     // keyframe 1: 12 cm, its parent outside the problem: far
+  shift(1, Vec3(0.20, 0, 0));     // keyframe 2: 20 cm, but 8 cm beyond its parent's 12: not far
+  shift(2, Vec3(0.20, 0.11, 0));  // keyframe 3: 11 cm beside its parent's move: far
+  // keyframe 4: not moved, while its parent moved 23 cm: not far
+  shift(4, Vec3(0.0, 0.3, 0));    // keyframe 5: 30 cm, but made at a weak pose
+  s->keyframes[5]->made_at_weak_pose = true;
+  shift(5, Vec3(0.0, 0.3, 0));    // keyframe 6: fixed (the solve cannot move it; set for the test)
+  const auto ids = [](const std::vector<map::Keyframe*>& kfs) {
+    std::vector<uint64_t> out;
+    for (const map::Keyframe* k : kfs) out.push_back(k->id);
+    return out;
+  };
+  EXPECT_EQ(ids(keyframesMovedFar(problem, kMaxKeyframeMoveM)),
+            (std::vector<uint64_t>{s->keyframes[1]->id, s->keyframes[3]->id}));
+  s->keyframes[3]->pose_held = true;  // held already: not reported again
+  EXPECT_EQ(ids(keyframesMovedFar(problem, kMaxKeyframeMoveM)), std::vector<uint64_t>{s->keyframes[1]->id});
+}
+
 // The builder copies what the map says: fixed keyframes anchor points without contributing
 // their own, bad keyframes and points are left out; applying skips what went bad meanwhile.
 TEST(MapBaProblem, BuilderAndApplyFollowTheMap) {
