@@ -31,6 +31,7 @@
 #include "map/frame.hpp"
 #include "map/map.hpp"
 #include "mapping/local_mapper.hpp"
+#include "optim/map_bundle_adjustment.hpp"
 #include "sim/camera_path.hpp"
 #include "sim/synthetic_scene.hpp"
 #include "system/system_options.hpp"
@@ -782,9 +783,10 @@ TEST(TrackerOdometry, AGrownMapGetsNoKeyframeFromAnOdometryPoseWhereTheMaskCover
 // few points with the map, and local BA could carry it far with its own new points (21 cm in one
 // solve on an fr1_xyz composite with 5-frame-old masks, 46 cm in the end, with the frames after
 // it). A solve that would move it more than 5 cm leaves it where tracking put it, held
-// (Keyframe::pose_held); one that moves it less refines it as usual, as any keyframe at a full pose.
-// Here the keyframe is moved 10 cm (or 2 cm) before local mapping sees it, so that the map's points
-// and its pose disagree by that much.
+// (Keyframe::pose_held); one that moves it less refines it as usual. A keyframe at a full pose has
+// the looser bar of 10 cm (optim::kMaxKeyframeMoveM, a step between consecutive frames that
+// tracking refuses). Here the keyframe is moved by shift_m before local mapping sees it, so that the
+// map's points and its pose disagree by that much.
 void weakPoseKeyframe(double shift_m, bool weak) {
   // Below the usual bar (20) but above the weak one (12) and 15 (a keyframe); or every point.
   const size_t points_kept = weak ? 19 : 100000;
@@ -819,7 +821,7 @@ void weakPoseKeyframe(double shift_m, bool weak) {
   {
     std::shared_lock lock(rig.map().mutex());
     EXPECT_EQ(kf->made_at_weak_pose, weak);
-    const bool held = weak && shift_m > 0.05;
+    const bool held = shift_m > (weak ? optim::kMaxWeakKeyframeMoveM : optim::kMaxKeyframeMoveM);
     EXPECT_EQ(kf->pose_held, held);
     if (held) {
       EXPECT_EQ(kf->T_c_w.matrix(), shifted_T_c_w.matrix());
@@ -834,7 +836,10 @@ TEST(TrackerWeakPose, AKeyframeAtAWeakPoseThatLocalBaWouldMoveFarIsHeldWhereTrac
   weakPoseKeyframe(0.10, /*weak=*/true);
 }
 TEST(TrackerWeakPose, AKeyframeAtAWeakPoseThatLocalBaMovesLittleIsRefined) { weakPoseKeyframe(0.02, true); }
-TEST(TrackerWeakPose, AKeyframeAtAFullPoseIsRefinedHoweverFarLocalBaMovesIt) { weakPoseKeyframe(0.10, false); }
+TEST(TrackerWeakPose, AKeyframeAtAFullPoseThatLocalBaMoves8CmIsRefined) { weakPoseKeyframe(0.08, false); }
+TEST(TrackerWeakPose, AKeyframeAtAFullPoseThatLocalBaWouldMove15CmIsHeldWhereTrackingPutIt) {
+  weakPoseKeyframe(0.15, false);
+}
 
 // After a loss (one covered frame) the next frame keeps only 29 map points in view (below the
 // local map's bar of 30; 22-25 inliers, above the bar after stage 2, 20) and is seen 2.8 cm beside
