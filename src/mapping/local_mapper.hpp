@@ -66,8 +66,11 @@ class LocalMapper {
   std::optional<optim::MapBaProblem> localBaProblem(map::Keyframe* kf) const;
   // Holds (Keyframe::pose_held) the free keyframes made at weak poses that the solved `problem`
   // moves more than kMaxWeakKeyframeMoveM, and the others it moves more than kMaxKeyframeMoveM
-  // (optim::keyframesMovedFar); whether any. Map lock held exclusively.
-  bool holdKeyframesMovedFar(const optim::MapBaProblem& problem);
+  // (optim::keyframesMovedFar); how many of each. Map lock held exclusively.
+  struct HeldKeyframes {
+    size_t weak = 0, other = 0;
+  };
+  HeldKeyframes holdKeyframesMovedFar(const optim::MapBaProblem& problem);
   void cullRedundantKeyframes(map::Keyframe* kf);
 
   LocalMapperOptions options_;

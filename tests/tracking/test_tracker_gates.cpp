@@ -16,6 +16,7 @@
 // dynamic.mode "off": stage 1/2 leave the statuses alone, so the tests set them as they need.
 #include <cmath>
 #include <functional>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -808,11 +809,13 @@ void weakPoseKeyframe(double shift_m, bool weak) {
   }
   map::Frame weak_frame = rig.render(path[kSpeedFrames].T_w_c, path[kSpeedFrames].timestamp, kSpeedFrames);
   SE3 shifted_T_c_w;
+  std::map<uint64_t, SE3> before_mapping;  // every keyframe's pose before local mapping sees the new one
   const TrackOutcome outcome_at = rig.track(weak_frame, [&](const TrackOutcome& outcome) {
     if (outcome.new_keyframe == nullptr) return;
     std::unique_lock lock(rig.map().mutex());
     outcome.new_keyframe->T_c_w = SE3(Mat3::Identity(), Vec3(shift_m, 0, 0)) * outcome.new_keyframe->T_c_w;
     shifted_T_c_w = outcome.new_keyframe->T_c_w;
+    for (const map::Keyframe* k : rig.map().keyframes()) before_mapping[k->id] = k->T_c_w;
   });
   ASSERT_TRUE(outcome_at.tracked);
   ASSERT_EQ(outcome_at.weak, weak);
@@ -825,6 +828,18 @@ void weakPoseKeyframe(double shift_m, bool weak) {
     EXPECT_EQ(kf->pose_held, held);
     if (held) {
       EXPECT_EQ(kf->T_c_w.matrix(), shifted_T_c_w.matrix());
+      // Held at a full pose, the window's other keyframes stay where they were too (only the points
+      // move); held at a weak pose, the others are solved again as usual.
+      int kept = 0, moved = 0;
+      for (const map::Keyframe* k : rig.map().keyframes()) {
+        if (k == kf || k->map_origin || before_mapping.count(k->id) == 0) continue;
+        (k->T_c_w.matrix() == before_mapping.at(k->id).matrix() ? kept : moved) += 1;
+      }
+      if (!weak) {
+        EXPECT_EQ(moved, 0) << kept << " kept";
+      } else {
+        EXPECT_GT(moved, 0) << kept << " kept";
+      }
     } else {
       // Refined: local BA moved it back towards where the map's points place it.
       EXPECT_LT(cameraDistance(kf->T_c_w, expectedTcw(kSpeedFrames)), 0.5 * shift_m);
