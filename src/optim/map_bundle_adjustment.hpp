@@ -35,10 +35,10 @@ constexpr double kMaxWeakKeyframeMoveM = 0.05;
 // over one frame at 30 Hz, a step between consecutive frames that tracking itself refuses. Local
 // BA's window keeps the map around it fixed: on 18 fr1 runs (10 composites with DeepLab masks, 6
 // with 5-frame-old masks, the 2 static sequences) it moved keyframes not made at a weak pose more
-// than 3 cm 10 times, 3.4-7.1 cm in five, but 27.6 cm in a young map started among walkers (fr1_desk
+// than 3 cm 10 times: 3.4-7.1 cm in five; 27.6 cm in a three-keyframe map in a crowd (fr1_desk
 // composite), from where 42 inliers had put it, and a later global BA carried it 54 cm further,
-// with the frames tracked from it (that map's ATE 0.42 m); in two others it slid two or three
-// keyframes 9.6-17.6 cm from tracked poses that were right.
+// with the frames tracked from it (that map's ATE 0.42 m); in two other runs it slid two keyframes
+// together 9.6-17.6 cm from tracked poses that were right.
 constexpr double kMaxKeyframeMoveM = 0.10;
 
 // keyframes[i] is held constant when fixed[i]. The points are those seen by the free keyframes;
