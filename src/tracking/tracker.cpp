@@ -7,6 +7,8 @@
 #include <mutex>
 #include <random>
 #include <shared_mutex>
+#include <stdexcept>
+#include <unordered_map>
 
 #include <Eigen/Geometry>
 #include <spdlog/spdlog.h>
@@ -662,6 +664,36 @@ void Tracker::predictBackwards(TrackOutcome& outcome, TrackEnd end) {
 
 void Tracker::finishBackwardPrediction(TrackOutcome& outcome) { predictBackwards(outcome, TrackEnd::kRunOver); }
 
+std::vector<MeasuredPair> guessesBetweenMeasuredPoses(const std::vector<FrameRecord>& records,
+                                                      const std::vector<int>& map_now, double max_span_s) {
+  if (map_now.size() != records.size())
+    throw std::invalid_argument("guessesBetweenMeasuredPoses: map_now needs one map id per record");
+  const auto guess = [](const FrameRecord& r) {
+    return r.source == PoseSource::kNone || r.source == PoseSource::kPredicted ||
+           r.source == PoseSource::kPredictedBackwards;
+  };
+  std::vector<MeasuredPair> pairs;
+  std::unordered_map<int, size_t> last_measured;  // map id now -> its last measured record so far
+  for (size_t b = 0; b < records.size(); ++b) {
+    if (!records[b].measured() || map_now[b] < 0) continue;
+    const auto it = last_measured.find(map_now[b]);
+    if (it != last_measured.end()) {
+      const size_t a = it->second;
+      // Between a and b (a is this map's last measured record): guesses, or frames measured in
+      // another map; an interpolated frame ends it (settle() placed it between other poses).
+      bool guesses_between = false, only_guesses_or_other_maps = true;
+      for (size_t k = a + 1; k < b && only_guesses_or_other_maps; ++k) {
+        guesses_between |= guess(records[k]);
+        only_guesses_or_other_maps = guess(records[k]) || records[k].measured();
+      }
+      if (guesses_between && only_guesses_or_other_maps && records[b].timestamp - records[a].timestamp <= max_span_s)
+        pairs.push_back({a, b});
+    }
+    last_measured[map_now[b]] = b;
+  }
+  return pairs;
+}
+
 std::vector<FrameRecord> Tracker::interpolateAcrossMerges() {
   std::vector<FrameRecord> interpolated;
   std::shared_lock lock(map_.mutex());
@@ -682,21 +714,17 @@ std::vector<FrameRecord> Tracker::interpolateAcrossMerges() {
     ++interpolated_poses_;
   };
 
-  // 1. Predictions between two measured poses close enough in time, in one map now. Interpolated
-  // frames between them (settle() did, between the same two) stay as they are.
-  const double predictions_span_s = options_.tracking.interpolate_predictions_within_s;
-  const auto guess = [](const FrameRecord& r) {
-    return r.source == PoseSource::kNone || r.source == PoseSource::kPredicted ||
-           r.source == PoseSource::kPredictedBackwards;
-  };
-  std::optional<size_t> a;  // the last measured record
-  for (size_t b = 0; predictions_span_s > 0 && b < records_.size(); ++b) {
-    if (!records_[b].measured()) continue;
-    if (a && b > *a + 1 && records_[b].timestamp - records_[*a].timestamp <= predictions_span_s &&
-        records_[*a].reference->map_id == records_[b].reference->map_id &&
-        std::all_of(records_.begin() + *a + 1, records_.begin() + b, guess))
-      for (size_t k = *a + 1; k < b; ++k) interpolateAt(records_[*a], records_[b], k);
-    a = b;
+  // 1. Predictions between two measured poses close enough in time, in one map now (frames
+  // measured in another map between them keep their poses). Interpolated frames between them
+  // (settle() did, between the same two) stay as they are.
+  if (options_.tracking.interpolate_predictions_within_s > 0) {
+    std::vector<int> map_now(records_.size(), -1);
+    for (size_t k = 0; k < records_.size(); ++k)
+      if (records_[k].reference != nullptr) map_now[k] = records_[k].reference->map_id;
+    for (const MeasuredPair& pair :
+         guessesBetweenMeasuredPoses(records_, map_now, options_.tracking.interpolate_predictions_within_s))
+      for (size_t k = pair.before + 1; k < pair.after; ++k)
+        if (!records_[k].measured()) interpolateAt(records_[pair.before], records_[pair.after], k);
   }
 
   // 2. Frames without a pose between two with one, in one map now.

@@ -49,6 +49,24 @@ struct FrameRecord {
   bool measured() const { return source == PoseSource::kTracked || source == PoseSource::kBackfilled; }
 };
 
+// Two measured records (indices into a run's records) whose guessed frames between them are to be
+// interpolated between the two.
+struct MeasuredPair {
+  size_t before = 0;
+  size_t after = 0;
+};
+
+// Rule 1 of Tracker::interpolateAcrossMerges, on the records alone: pairs of measured records in
+// the same map now (map_now[k]: the map records[k]'s reference keyframe is in now, -1 without one),
+// at most max_span_s apart, with at least one guess (kNone, kPredicted, kPredictedBackwards)
+// between them and nothing else between them but guesses and frames measured in another map. Such
+// a frame is a map started in the loss and lost again, never merged: its pose is in that map's
+// world and says nothing of this one's, so it keeps its pose and does not leave the guesses around
+// it to the prediction of one side (a fr1_xyz composite: a one-frame map in a 0.4 s loss left nine
+// predicted frames up to 16 cm off and a 22 cm step to the next map's first frame).
+std::vector<MeasuredPair> guessesBetweenMeasuredPoses(const std::vector<FrameRecord>& records,
+                                                      const std::vector<int>& map_now, double max_span_s);
+
 // The camera, tracked in a map started at a loss, found in another map of the atlas too
 // (atlas.other_map_search_s): what loop closing needs to merge the two, at the keyframe made there.
 struct FoundInOtherMap {
@@ -126,8 +144,9 @@ class Tracker {
   // The end of a run, all merges done (no frame is being tracked). Online, settle() can interpolate
   // only when the camera is found again in the map it was lost in; now:
   //  1. frames with a predicted pose (or none) between two measured ones that ended in the same
-  //     map, at most tracking.interpolate_predictions_within_s apart with no other measured frame
-  //     between them, get poses interpolated between those two;
+  //     map, at most tracking.interpolate_predictions_within_s apart with no other frame measured
+  //     in that map between them, get poses interpolated between those two; frames measured in
+  //     another map between them keep theirs (guessesBetweenMeasuredPoses);
   //  2. frames still without a pose between two frames with one (any kind) that ended in the same
   //     map, at most twice tracking.backfill_max_s apart, get poses interpolated between those two;
   //     frames tracked in another map between them (one started in the loss and lost again) keep

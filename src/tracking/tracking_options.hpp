@@ -106,8 +106,9 @@ struct TrackingOptions {
   double predict_back_s = 0.3;
   // At the end of a run, after every merge: the frames with a predicted pose (either way, or none)
   // between two measured ones (tracked or backfilled) that ended in the same map, at most this
-  // long apart with no other measured frame between, are interpolated between those two (report:
-  // "interpolated"; "predicted" stays set). The two predictions' horizons (0.3 + 0.3 s) bound it:
+  // long apart with no other frame measured in that map between (one measured in another map, a
+  // map started in the loss and never merged, keeps its pose), are interpolated between those two
+  // (report: "interpolated"; "predicted" stays set). The two predictions' horizons (0.3 + 0.3 s) bound it:
   // every frame so settled is then no farther from a measured pose than a prediction would be, and
   // the motion on both sides of it is used, where a prediction used one side only. The usual case
   // is a loss whose two sides were in two maps that a merge joined later. Over longer gaps the
