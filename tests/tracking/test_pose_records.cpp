@@ -41,12 +41,14 @@ std::string describe(const std::vector<MeasuredPair>& pairs) {
   return s;
 }
 
-TEST(PoseRecords, PredictionsBetweenTwoMeasuredPosesInOneMapAreInterpolatedBetweenThem) {
-  const auto r = records("TTPPKKBT");
-  const auto pairs = guessesBetweenMeasuredPoses(r, {0, 0, 0, 0, 0, 0, 0, 0}, kMaxSpanS);
+void expectOnePair(const std::vector<MeasuredPair>& pairs, size_t before, size_t after) {
   ASSERT_EQ(pairs.size(), 1u) << describe(pairs);
-  EXPECT_EQ(pairs[0].before, 1u);
-  EXPECT_EQ(pairs[0].after, 6u);
+  EXPECT_EQ(pairs[0].before, before);
+  EXPECT_EQ(pairs[0].after, after);
+}
+
+TEST(PoseRecords, PredictionsBetweenTwoMeasuredPosesInOneMapAreInterpolatedBetweenThem) {
+  expectOnePair(guessesBetweenMeasuredPoses(records("TTPPKKBT"), {0, 0, 0, 0, 0, 0, 0, 0}, kMaxSpanS), 1, 6);
 }
 
 TEST(PoseRecords, MeasuredPosesInTwoMapsAreNotInterpolatedBetween) {
@@ -58,11 +60,7 @@ TEST(PoseRecords, MeasuredPosesInTwoMapsAreNotInterpolatedBetween) {
 // frames of map 0 (the first map, and the map the loss ended in, merged into it): the guesses
 // around that frame are interpolated between the two frames of map 0; its own pose stays.
 TEST(PoseRecords, AFrameMeasuredInAnotherMapDoesNotKeepTheGuessesAroundItFromInterpolation) {
-  const auto r = records("TPPPPTKT");
-  const auto pairs = guessesBetweenMeasuredPoses(r, {0, 0, 0, 0, 0, 1, 0, 0}, kMaxSpanS);
-  ASSERT_EQ(pairs.size(), 1u) << describe(pairs);
-  EXPECT_EQ(pairs[0].before, 0u);
-  EXPECT_EQ(pairs[0].after, 7u);
+  expectOnePair(guessesBetweenMeasuredPoses(records("TPPPPTKT"), {0, 0, 0, 0, 0, 1, 0, 0}, kMaxSpanS), 0, 7);
   // Without the guesses between, two measured frames of one map with another map's between need
   // nothing interpolated.
   EXPECT_TRUE(guessesBetweenMeasuredPoses(records("TTT"), {0, 1, 0}, kMaxSpanS).empty());
