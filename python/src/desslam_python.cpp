@@ -287,6 +287,10 @@ void bind(py::module_& m) {
           "T_w_c", [](const TrackResult& r) { return Eigen::Matrix4d(r.T_w_c); },
           "4x4 float64 world-from-camera in the world of map `map_id` (identity without a pose)")
       .def_readonly("map_id", &TrackResult::map_id, "the atlas map T_w_c is in (-1: no pose)")
+      .def_property_readonly(
+          "T_odom_c", [](const TrackResult& r) { return Eigen::Matrix4d(r.T_odom_c); },
+          "4x4 float64 pose in the odometry frame: continuous where T_w_c jumps (a new map, a merge, a loop "
+          "correction); it drifts and is never corrected (identity without a pose)")
       .def_readonly("keyframe", &TrackResult::keyframe)
       .def_readonly("new_map", &TrackResult::new_map)
       .def_readonly("inliers", &TrackResult::inliers)
@@ -341,6 +345,10 @@ void bind(py::module_& m) {
       .def("keyframe_trajectory",
            [](PySlam& self) { return toPython(withSlam(self, [](Slam& s) { return s.keyframeTrajectory(); })); },
            "Every keyframe of the atlas (map_ids: its map)")
+      .def("odometry_trajectory",
+           [](PySlam& self) { return toPython(withSlam(self, [](Slam& s) { return s.odometryTrajectory(); })); },
+           "Every frame that had a pose, as TrackResult.T_odom_c gave it (world_map_ids: -1, the odometry frame; "
+           "not for an ATE: motions across a loss that started a map are extrapolated)")
       .def(
           "export_dense_map",
           [](PySlam& self, const std::filesystem::path& directory, bool semantic_colour) {

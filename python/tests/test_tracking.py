@@ -72,6 +72,14 @@ def test_every_frame_gets_its_pose_and_state(synthetic_python_run):
     assert statistics["counts"]["frames_tracked"] == len(tracked)
     everything = slam.trajectory_all()
     assert len(everything) >= len(slam.trajectory()) and set(everything.world_map_ids) == {0}
+    # One map, never moved into another world: the odometry frame starts as that map's world and
+    # stays with it (within what local bundle adjustment moves a frame's keyframes between frames).
+    odometry = slam.odometry_trajectory()
+    posed = [r for r in results if r.has_pose]
+    assert len(odometry) == len(posed) and set(odometry.world_map_ids) == {-1}
+    for r, T_odom_c in zip(posed, odometry.poses):
+        np.testing.assert_allclose(r.T_odom_c, T_odom_c)
+        assert np.linalg.norm(r.T_odom_c[:3, 3] - r.T_w_c[:3, 3]) < 0.02
 
 
 def test_raw_depth_and_rgb_order_give_the_same_poses(synthetic):

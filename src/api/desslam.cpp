@@ -186,6 +186,7 @@ TrackResult Slam::track(double timestamp_s, const cv::Mat& bgr, const cv::Mat& d
       result.T_w_c = toMatrix(pose->T_w_c);
       result.map_id = pose->world_map;
     }
+    if (const std::optional<SE3> T_odom_c = system.lastOdometryPose()) result.T_odom_c = toMatrix(*T_odom_c);
   }
   return result;
 }
@@ -207,6 +208,10 @@ std::vector<FramePose> Slam::trajectoryAll() const { return toFramePoses(impl_->
 
 std::vector<FramePose> Slam::keyframeTrajectory() const {
   return toFramePoses(impl_->system.keyframeTrajectoryAll());
+}
+
+std::vector<FramePose> Slam::odometryTrajectory() const {
+  return toFramePoses(impl_->system.odometryTrajectory());
 }
 
 void Slam::writeTrajectory(const std::filesystem::path& file) const {

@@ -52,7 +52,9 @@ SlamSystem::SlamSystem(const SystemOptions& options, const RunSettings& settings
       pyramid_(std::make_shared<feature::ScalePyramid>(extractor_.pyramid())),
       keyframe_db_(makeKeyframeDatabase(options)),
       tracker_(trackerOptions(options), camera_, map_, keyframe_db_.get()),
-      mapper_(localMapperOptions(options), camera_, map_, keyframe_db_.get()) {
+      mapper_(localMapperOptions(options), camera_, map_, keyframe_db_.get()),
+      // Across an unknown motion the odometry frame extrapolates no longer than tracking predicts.
+      odometry_(options.tracking.predict_through_loss_s) {
   options_.validate();
   if (settings_.mask_latency_frames < 0 || settings_.mask_period_frames < 1 ||
       (settings_.mask_latency_frames > 0 && settings_.realtime))
@@ -338,10 +340,41 @@ void SlamSystem::processFrame(Timestamp timestamp, const cv::Mat& bgr, const cv:
     const cv::Mat view = drawDynamicDebugView(bgr, frame.dynamic_mask, frame);
     writeFileAtomicallyVia(path, "debug image", [&](const std::filesystem::path& tmp) { return cv::imwrite(tmp.string(), view); });
   }
+  updateOdometry(frame_id);
   stats.total_ms = millisecondsSince(start);
   previous_processing_ms_ = stats.total_ms - stats.mask_wait_ms;
   frames_.push_back(stats);
   rethrowWorkerFailure();
+}
+
+void SlamSystem::updateOdometry(uint64_t frame_id) {
+  last_T_odom_c_.reset();
+  if (tracker_.records().empty()) return;
+  const tracking::FrameRecord& now = tracker_.records().back();
+  if (now.frame_id != frame_id || now.reference == nullptr) return;
+  std::optional<SE3> T_prev_now;
+  SE3 T_w_c_now;
+  {
+    std::shared_lock lock(map_.mutex());
+    const SE3 T_c_w_now = now.T_c_r * map::keyframeTcw(now.reference);
+    T_w_c_now = T_c_w_now.inverse();
+    // Both frames' reference keyframes in one world now (after any merge), with their poses as they
+    // are now: the motion tracking measured between the two frames, a correction of both left out.
+    const tracking::FrameRecord* last = odometry_last_ ? &*odometry_last_ : nullptr;
+    if (last != nullptr && last->reference->map_id == now.reference->map_id)
+      T_prev_now = last->T_c_r * map::keyframeTcw(last->reference) * T_w_c_now;
+  }
+  last_T_odom_c_ = odometry_.add(now.timestamp, T_prev_now, T_w_c_now);
+  odometry_maps_.push_back(now.map_id);
+  odometry_last_ = now;
+}
+
+AtlasTrajectory SlamSystem::odometryTrajectory() const {
+  AtlasTrajectory trajectory;
+  const Trajectory& poses = odometry_.poses();
+  for (size_t i = 0; i < poses.size(); ++i)
+    trajectory.push_back({poses[i].timestamp, poses[i].T_w_c, odometry_maps_[i], -1});
+  return trajectory;
 }
 
 void SlamSystem::markPredictedBackwards(const tracking::TrackOutcome& outcome) {
@@ -723,6 +756,10 @@ nlohmann::json SlamSystem::statistics() const {
                    {"interpolated_poses", tracker_.interpolatedPoses()},
                    {"backward_predicted_poses", tracker_.backwardPredictedPoses()},
                    {"held_poses", tracker_.heldPoses()},
+                   // The odometry frame (odometry_chain.hpp): frames in it, and steps between worlds
+                   // no merge had joined, where the last velocity was extrapolated.
+                   {"odometry_frame_poses", odometry_.poses().size()},
+                   {"odometry_frame_extrapolated_steps", odometry_.extrapolatedSteps()},
                    {"keyframes", map_.keyframeCount()},
                    {"keyframes_created", map_.allKeyframes().size()},
                    {"map_points", map_.pointCount()}};

@@ -32,6 +32,7 @@
 #include "mapping/local_mapper.hpp"
 #include "optim/map_bundle_adjustment.hpp"
 #include "place/keyframe_database.hpp"
+#include "system/odometry_chain.hpp"
 #include "system/system_options.hpp"
 #include "tracking/tracker.hpp"
 
@@ -146,6 +147,12 @@ class SlamSystem {
   // The pose of the frame processed last, in the world of the map it belongs to now (nullopt:
   // that frame has no pose).
   std::optional<AtlasPose> lastFramePose() const;
+  // The pose of the frame processed last in the odometry frame (odometry_chain.hpp: continuous
+  // over new maps, merges and loop corrections; nullopt: that frame has no pose).
+  std::optional<SE3> lastOdometryPose() const { return last_T_odom_c_; }
+  // Every frame that had a pose when it was processed, in the odometry frame as it was then (map:
+  // the map it was tracked in; world_map: -1, no map's world). Tracking thread only.
+  AtlasTrajectory odometryTrajectory() const;
   // Whether a map has been started (tracking is past initialisation).
   bool initialised() const { return tracker_.state() != tracking::TrackingState::kNotInitialized; }
   // After finish(): fuses the dense map with the final keyframe poses and writes dense_map.ply,
@@ -178,6 +185,8 @@ class SlamSystem {
   void applyKeyframeMask(map::Keyframe* kf);
   // Flags the frames the outcome predicted backwards (tracking.predict_back_s) in frames_.
   void markPredictedBackwards(const tracking::TrackOutcome& outcome);
+  // Adds the frame just tracked to the odometry chain when it has a pose (takes the map lock shared).
+  void updateOdometry(uint64_t frame_id);
   // Frames with a pose per map they ended in (after every merge). Map lock held shared.
   std::map<int, size_t> framesPerMapLocked() const;
   // The live map holding the most tracked frames (-1: none). Map lock held shared.
@@ -249,6 +258,12 @@ class SlamSystem {
   KeyframeMaskStats keyframe_masks_;
 
   std::vector<FrameStats> frames_;
+  // The odometry frame (tracking thread only): the chain, the map each of its frames was tracked
+  // in, the record of the last frame added, and the last frame's pose in it.
+  OdometryChain odometry_;
+  std::vector<int> odometry_maps_;
+  std::optional<tracking::FrameRecord> odometry_last_;
+  std::optional<SE3> last_T_odom_c_;
   // Real time: the previous frame's processing time without its mask wait, and the time a frame
   // keeps free of the mask wait (1.5 frame periods minus both bounds the wait).
   double previous_processing_ms_ = 0;
