@@ -127,11 +127,12 @@ struct TrackResult {
   Eigen::Matrix4d T_w_c = Eigen::Matrix4d::Identity();
   int map_id = -1;          // the atlas map whose world T_w_c is in (-1: no pose)
   // The same frame in the odometry frame (ROS REP 105's "odom"): continuous where T_w_c jumps (a new
-  // map starts at the camera, a merge or a loop correction moves the world). Each frame follows the
-  // one before by the motion tracking measured between them; between maps no merge has joined, by
-  // the last velocity (for at most tracking.predict_through_loss_s). It drifts and is never
-  // corrected: T_w_c * T_odom_c^-1 is T_w_odom, the odometry frame in map map_id's world, as a
-  // robot's map -> odom transform. Identity when the frame has no pose.
+  // map starts at the camera, a merge or a loop correction moves the world, a frame found again
+  // after a loss leaves the prediction). Each frame follows the one before by the motion tracking
+  // measured (or predicted) between them; across maps no merge has joined and from a predicted
+  // frame to one found again, by the last velocity (for at most tracking.predict_through_loss_s).
+  // It drifts and is never corrected: T_w_c * T_odom_c^-1 is T_w_odom, the odometry frame in map
+  // map_id's world, as a robot's map -> odom transform. Identity when the frame has no pose.
   Eigen::Matrix4d T_odom_c = Eigen::Matrix4d::Identity();
   bool keyframe = false;    // the frame became a keyframe
   bool new_map = false;     // the frame started a map of the atlas
@@ -184,8 +185,8 @@ class Slam {
   // Every frame that had a pose when track() returned, as TrackResult::T_odom_c gave it (map_id: the
   // map it was tracked in; world_map_id: -1, the odometry frame; writeTumTrajectory() writes it).
   // Not for an ATE: across a loss that started a map the motion is extrapolated, and the error of
-  // that guess stays in every later pose (crowded fr1_desk composites: 0.36-1.0 m after 2-10 such
-  // steps, where the main map's frames are within 0.02 m).
+  // that guess stays in every later pose (crowded fr1_desk composites: 0.36-1.07 m after 3-13 such
+  // steps, where the main maps' frames are within 0.02 m).
   std::vector<FramePose> odometryTrajectory() const;
   // The first three as TUM files, as `desslam run` writes them (CameraTrajectory.txt,
   // CameraTrajectory_all.txt with map_id and world_map_id after each pose, KeyFrameTrajectory.txt),

@@ -6,9 +6,11 @@
 // frame's pose follows the previous frame's by the motion tracking measured between the two,
 // computed in one world with the keyframe poses as they are now (so a correction of both is not
 // taken for motion). Where the two frames are in worlds no merge has joined (a new map started, or
-// the camera relocalised into a map not merged), the motion is unknown and the last measured
-// velocity is extrapolated instead, for at most a bounded time. The odom frame drifts (it is never
-// corrected afterwards); T_w_odom = T_w_c * T_odom_c^-1 relates it to a map's world.
+// the camera relocalised into a map not merged), the motion is unknown, and from a predicted frame
+// to one found again it would carry the prediction's error as a jump: there the last velocity is
+// extrapolated instead, for at most a bounded time (SlamSystem::updateOdometry decides which). The
+// odom frame drifts (it is never corrected afterwards); T_w_odom = T_w_c * T_odom_c^-1 relates it
+// to a map's world.
 #pragma once
 
 #include <optional>

@@ -359,9 +359,14 @@ void SlamSystem::updateOdometry(uint64_t frame_id) {
     const SE3 T_c_w_now = now.T_c_r * map::keyframeTcw(now.reference);
     T_w_c_now = T_c_w_now.inverse();
     // Both frames' reference keyframes in one world now (after any merge), with their poses as they
-    // are now: the motion tracking measured between the two frames, a correction of both left out.
+    // are now: the motion tracking measured (or predicted) between the two, a correction of both
+    // left out. From a predicted frame to a tracked one the step is extrapolated instead: the
+    // prediction was a guess, and the frame found again would jump by its error (the map's pose
+    // does; T_w_odom takes it up).
     const tracking::FrameRecord* last = odometry_last_ ? &*odometry_last_ : nullptr;
-    if (last != nullptr && last->reference->map_id == now.reference->map_id)
+    const bool found_again =
+        last != nullptr && last->source == tracking::PoseSource::kPredicted && now.source == tracking::PoseSource::kTracked;
+    if (last != nullptr && !found_again && last->reference->map_id == now.reference->map_id)
       T_prev_now = last->T_c_r * map::keyframeTcw(last->reference) * T_w_c_now;
   }
   last_T_odom_c_ = odometry_.add(now.timestamp, T_prev_now, T_w_c_now);
