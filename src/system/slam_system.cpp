@@ -761,8 +761,9 @@ nlohmann::json SlamSystem::statistics() const {
                    {"interpolated_poses", tracker_.interpolatedPoses()},
                    {"backward_predicted_poses", tracker_.backwardPredictedPoses()},
                    {"held_poses", tracker_.heldPoses()},
-                   // The odometry frame (odometry_chain.hpp): frames in it, and steps between worlds
-                   // no merge had joined, where the last velocity was extrapolated.
+                   // The odometry frame (odometry_chain.hpp): frames in it, and steps where the last
+                   // velocity was extrapolated (between worlds no merge had joined, or from a
+                   // predicted frame to one found again).
                    {"odometry_frame_poses", odometry_.poses().size()},
                    {"odometry_frame_extrapolated_steps", odometry_.extrapolatedSteps()},
                    {"keyframes", map_.keyframeCount()},
