@@ -185,8 +185,8 @@ class Slam {
   // Every frame that had a pose when track() returned, as TrackResult::T_odom_c gave it (map_id: the
   // map it was tracked in; world_map_id: -1, the odometry frame; writeTumTrajectory() writes it).
   // Not for an ATE: across a loss that started a map the motion is extrapolated, and the error of
-  // that guess stays in every later pose (crowded fr1_desk composites: 0.36-1.07 m after 3-13 such
-  // steps, where the main maps' frames are within 0.02 m).
+  // that guess stays in every later pose (fr1_desk composites, 8 runs with 1-13 such steps: 0.10-1.07
+  // m, where their main maps are within 0.025 m; the README's figures).
   std::vector<FramePose> odometryTrajectory() const;
   // The first three as TUM files, as `desslam run` writes them (CameraTrajectory.txt,
   // CameraTrajectory_all.txt with map_id and world_map_id after each pose, KeyFrameTrajectory.txt),
